@@ -1,0 +1,30 @@
+//! The wire shared by the robot agents, the fusion server, the simulator and the web page.
+//!
+//! Everything that crosses a process boundary is defined here: message types (JSON via
+//! serde), key expressions, validation of inbound data and the JSON Schemas generated from
+//! the types. No I/O happens in this crate.
+//!
+//! Units are SI and appear in field names (`position_m`, `velocity_mps`). The field frame
+//! has its origin at the pitch centre, x along the long side, y to the left of +x, z up.
+
+mod codec;
+mod keys;
+mod messages;
+mod pitch;
+pub mod schema;
+mod stamp;
+mod validate;
+
+pub use codec::{DecodeError, decode, encode};
+pub use keys::{DEFAULT_PREFIX, KeyError, KeySpace};
+pub use messages::{
+    BallState, BallStatus, BounceEvent, Camera, CameraFootprint, HeadJoints, Intercept,
+    ModelParams, Observation, PathSample, PixelBall, Pose2, Prediction, RobotStatus, StageTiming,
+    StopPoint,
+};
+pub use pitch::{Pitch, WallSide};
+pub use stamp::Stamp;
+pub use validate::{Validate, ValidationContext, ValidationError};
+
+/// Version of the wire format. Decoders reject messages carrying any other version.
+pub const VERSION: u32 = 1;

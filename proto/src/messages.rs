@@ -1,0 +1,200 @@
+//! Message types carried over Zenoh, HTTP and MCAP.
+
+use crate::{Stamp, WallSide};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// Which of a MiRo's two cameras took the image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Camera {
+    Left,
+    Right,
+}
+
+/// A robot's pose on the field: position and heading (rad, counter-clockwise from +x).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Pose2 {
+    pub x_m: f64,
+    pub y_m: f64,
+    pub theta_rad: f64,
+}
+
+/// Where the ball was found in the image (optional: simulated observers have no image).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PixelBall {
+    pub u_px: f64,
+    pub v_px: f64,
+    pub radius_px: f64,
+}
+
+/// One ball sighting by one camera of one robot, projected onto the floor.
+/// Published on `{prefix}/robots/{robot_id}/obs`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Observation {
+    pub version: u32,
+    pub robot_id: String,
+    /// Per-robot sequence number, increasing by one per published observation.
+    pub seq: u64,
+    pub camera: Camera,
+    /// Capture time of the image.
+    pub stamp: Stamp,
+    /// Ball centre on the floor, field frame.
+    pub position_m: [f64; 2],
+    /// 2×2 covariance of `position_m`, row-major, symmetric positive definite.
+    pub covariance_m2: [f64; 4],
+    /// Detector confidence that this is the ball, 0..1.
+    pub confidence: f64,
+    /// The observing robot's pose at capture time.
+    pub robot_pose: Pose2,
+    pub pixel: Option<PixelBall>,
+}
+
+/// Head joint angles of a MiRo.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HeadJoints {
+    pub lift_rad: f64,
+    pub yaw_rad: f64,
+    pub pitch_rad: f64,
+}
+
+/// Time spent in one stage of the robot's perception pipeline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StageTiming {
+    pub stage: String,
+    pub ms: f64,
+}
+
+/// The floor area one camera can see, as a polygon in the field frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CameraFootprint {
+    pub camera: Camera,
+    pub polygon_m: Vec<[f64; 2]>,
+}
+
+/// A robot's periodic status. Published on `{prefix}/robots/{robot_id}/status`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RobotStatus {
+    pub version: u32,
+    pub robot_id: String,
+    pub stamp: Stamp,
+    pub pose: Pose2,
+    /// 3×3 covariance of (x, y, θ), row-major.
+    pub pose_covariance: [f64; 9],
+    pub head: HeadJoints,
+    /// Frames per second processed by the perception loop.
+    pub fps: f64,
+    pub timings: Vec<StageTiming>,
+    pub footprints: Vec<CameraFootprint>,
+}
+
+/// The fused ball's motion state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BallStatus {
+    /// Seen recently and moving.
+    Tracking,
+    /// Not seen for a while; the estimate is a prediction.
+    Coasting,
+    /// Seen recently and at rest.
+    Stopped,
+    /// No usable estimate.
+    Lost,
+}
+
+/// The motion-model parameters in use, estimated online from the data.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ModelParams {
+    /// Constant rolling deceleration opposite to the velocity.
+    pub rolling_decel_mps2: f64,
+    /// Wall coefficient of restitution (normal speed out / in).
+    pub wall_restitution: f64,
+    /// Number of rolling segments that informed the deceleration estimate.
+    pub decel_samples: u32,
+    /// Number of bounces that informed the restitution estimate.
+    pub restitution_samples: u32,
+}
+
+/// A point on the predicted path.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PathSample {
+    /// Seconds after the prediction's stamp.
+    pub t_s: f64,
+    pub position_m: [f64; 2],
+    pub velocity_mps: [f64; 2],
+}
+
+/// A predicted wall bounce.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BounceEvent {
+    /// Seconds after the prediction's stamp.
+    pub t_s: f64,
+    pub position_m: [f64; 2],
+    pub wall: WallSide,
+}
+
+/// Where and when the ball is predicted to come to rest.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StopPoint {
+    /// Seconds after the prediction's stamp.
+    pub t_s: f64,
+    pub position_m: [f64; 2],
+}
+
+/// The ball's predicted path from `stamp` on, through wall bounces, to its stop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Prediction {
+    pub version: u32,
+    pub stamp: Stamp,
+    pub horizon_s: f64,
+    pub samples: Vec<PathSample>,
+    pub bounces: Vec<BounceEvent>,
+    pub stop: Option<StopPoint>,
+}
+
+/// The shared ball estimate. Published on `{prefix}/ball/state`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BallState {
+    pub version: u32,
+    /// Time the estimate refers to.
+    pub stamp: Stamp,
+    pub position_m: [f64; 2],
+    pub velocity_mps: [f64; 2],
+    /// 4×4 covariance of (x, y, vx, vy), row-major.
+    pub covariance: [f64; 16],
+    pub status: BallStatus,
+    /// Capture time of the newest observation that updated the estimate.
+    pub last_seen: Option<Stamp>,
+    /// Robots whose observations updated the estimate recently.
+    pub contributors: Vec<String>,
+    pub model: ModelParams,
+    pub prediction: Prediction,
+}
+
+/// The earliest point on the predicted path a robot can reach.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Intercept {
+    pub version: u32,
+    pub robot_id: String,
+    pub stamp: Stamp,
+    /// False when the robot cannot reach the ball before it stops (then `t_s` and
+    /// `point_m` are where it can meet the ball at rest).
+    pub reachable_in_motion: bool,
+    /// Seconds after `stamp`.
+    pub t_s: f64,
+    pub point_m: [f64; 2],
+}
