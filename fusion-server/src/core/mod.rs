@@ -1,0 +1,19 @@
+//! The fusion core: a covariance-weighted Kalman filter over many robots' observations,
+//! with a motion model that knows rolling friction and the pitch walls.
+//!
+//! - [`motion`]: closed-form ball flight with constant deceleration, stop, wall bounces.
+//! - [`filter`]: one extended Kalman filter over [x, y, vx, vy, decel, restitution].
+//! - [`tracker`]: hypotheses, gating, promotion, per-robot trust.
+//! - [`fusion`]: capture-time ordering, the late-observation window, the public API.
+//! - [`predict`]: path, bounces, stop point; [`intercept`]: where a robot meets the ball.
+
+pub mod filter;
+pub mod fusion;
+pub mod intercept;
+pub mod motion;
+pub mod predict;
+pub mod tracker;
+
+
+
+
