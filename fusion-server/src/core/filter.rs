@@ -342,8 +342,20 @@ mod tests {
             xp[j] += h;
             let mut xm = f0.x;
             xm[j] -= h;
-            let fp = fly([xp[0], xp[1]], [xp[2], xp[3]], 0.6, &f0.model(&m).with(xp), &b);
-            let fm = fly([xm[0], xm[1]], [xm[2], xm[3]], 0.6, &f0.model(&m).with(xm), &b);
+            let fp = fly(
+                [xp[0], xp[1]],
+                [xp[2], xp[3]],
+                0.6,
+                &f0.model(&m).with(xp),
+                &b,
+            );
+            let fm = fly(
+                [xm[0], xm[1]],
+                [xm[2], xm[3]],
+                0.6,
+                &f0.model(&m).with(xm),
+                &b,
+            );
             let d = [
                 (fp.position[0] - fm.position[0]) / (2.0 * h),
                 (fp.position[1] - fm.position[1]) / (2.0 * h),
@@ -353,7 +365,12 @@ mod tests {
             for i in 0..4 {
                 // The constant-velocity Jacobian leaves out the lateral effect of the
                 // deceleration's direction (a·t/s ≈ 0.15 here); that bounds the mismatch.
-                assert!((jac[(i, j)] - d[i]).abs() < 0.2, "F[{i},{j}] = {} vs {}", jac[(i, j)], d[i]);
+                assert!(
+                    (jac[(i, j)] - d[i]).abs() < 0.2,
+                    "F[{i},{j}] = {} vs {}",
+                    jac[(i, j)],
+                    d[i]
+                );
             }
         }
     }
@@ -363,7 +380,11 @@ mod tests {
     }
     impl With for MotionModel {
         fn with(self, x: State) -> Self {
-            MotionModel { decel_mps2: x[DECEL], restitution: x[RESTITUTION], ..self }
+            MotionModel {
+                decel_mps2: x[DECEL],
+                restitution: x[RESTITUTION],
+                ..self
+            }
         }
     }
 

@@ -1,1 +1,530 @@
-//! todo
+//! The public face of the core: observations in (in any arrival order), ball state out.
+//!
+//! Observations are applied by capture time. Those that arrive late, up to
+//! `late_window_s` behind the newest one, are inserted in capture order and the tracker is
+//! replayed from the snapshot just before them, so the estimate is exactly the one an
+//! in-order arrival would have given. Older ones are counted and dropped. The fused
+//! estimate is never fed back in as an observation.
+
+use super::filter::{BallFilter, DECEL, RESTITUTION, propagate};
+use super::intercept::{InterceptSolution, intercept};
+use super::motion::{Bounds, speed};
+use super::predict;
+use super::tracker::{ObsInput, RobotTrust, Tracker, TrackerConfig};
+use nalgebra::Matrix2;
+use proto::{BallState, BallStatus, Camera, ModelParams, Observation, Pitch, Prediction, Stamp};
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct FusionConfig {
+    pub pitch: Pitch,
+    /// How late an observation may arrive (behind the newest capture) and still be used.
+    pub late_window_s: f64,
+    pub tracker: TrackerConfig,
+    /// Prediction horizon and sample spacing of the path in each `BallState`.
+    pub horizon_s: f64,
+    pub sample_dt_s: f64,
+    /// Unseen for longer than this: coasting; longer than `lost_after_s`: lost.
+    pub coasting_after_s: f64,
+    pub lost_after_s: f64,
+    /// Slower than this: stopped.
+    pub stopped_speed_mps: f64,
+    /// Robots that updated the estimate within this window are its contributors.
+    pub contributors_window_s: f64,
+}
+
+impl Default for FusionConfig {
+    fn default() -> Self {
+        FusionConfig {
+            pitch: Pitch::default(),
+            late_window_s: 0.5,
+            tracker: TrackerConfig::default(),
+            horizon_s: 3.0,
+            sample_dt_s: 0.1,
+            coasting_after_s: 0.5,
+            lost_after_s: 3.0,
+            stopped_speed_mps: 0.03,
+            contributors_window_s: 1.0,
+        }
+    }
+}
+
+/// What happened to one ingested observation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Ingest {
+    /// Applied in capture order on top of the current state.
+    Applied,
+    /// Arrived out of order; inserted and `replayed` later observations re-applied.
+    Reordered { replayed: usize },
+    /// Older than the late window: dropped.
+    TooLate { late_s: f64 },
+    /// Already seen (same robot, camera, sequence number and stamp): dropped.
+    Duplicate,
+    /// Unusable covariance: dropped.
+    Rejected,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FusionCounters {
+    pub applied: u64,
+    pub reordered: u64,
+    pub replayed: u64,
+    pub too_late: u64,
+    pub duplicates: u64,
+    pub rejected: u64,
+}
+
+/// Origin of the core's f64 time axis (2020-01-01T00:00:00Z). A fixed origin, rather than
+/// the first observation's stamp, keeps the arithmetic identical whatever arrives first;
+/// f64 seconds keep 30 ns resolution for decades after it.
+const TIME_ORIGIN: Stamp = Stamp(1_577_836_800_000_000_000);
+
+type Key = (u64, Arc<str>, u64, u8);
+
+#[derive(Debug, Clone)]
+struct Pending {
+    key: Key,
+    input: ObsInput,
+}
+
+/// The fusion core. Time is always passed in; nothing here reads a clock.
+#[derive(Debug, Clone)]
+pub struct Fusion {
+    cfg: FusionConfig,
+    /// State after every committed observation (older than the late window).
+    base: Tracker,
+    /// Observations inside the late window, in capture order, and the state after each.
+    pending: VecDeque<Pending>,
+    snapshots: VecDeque<Tracker>,
+    newest: Option<Stamp>,
+    names: Vec<Arc<str>>,
+    counters: FusionCounters,
+}
+
+impl Fusion {
+    pub fn new(cfg: FusionConfig) -> Self {
+        let bounds = Bounds::from_pitch(&cfg.pitch);
+        let base = Tracker::new(Arc::new(cfg.tracker.clone()), bounds);
+        Fusion {
+            cfg,
+            base,
+            pending: VecDeque::new(),
+            snapshots: VecDeque::new(),
+            newest: None,
+            names: Vec::new(),
+            counters: FusionCounters::default(),
+        }
+    }
+
+    pub fn config(&self) -> &FusionConfig {
+        &self.cfg
+    }
+
+    pub fn counters(&self) -> FusionCounters {
+        self.counters
+    }
+
+    /// The tracker after every observation received so far.
+    pub fn tracker(&self) -> &Tracker {
+        self.snapshots.back().unwrap_or(&self.base)
+    }
+
+    /// Interns robot names so snapshots share them.
+    fn name(&mut self, robot: &str) -> Arc<str> {
+        if let Some(n) = self.names.iter().find(|n| ***n == *robot) {
+            return n.clone();
+        }
+        let n: Arc<str> = Arc::from(robot);
+        self.names.push(n.clone());
+        n
+    }
+
+    fn t_of(&self, stamp: Stamp) -> f64 {
+        stamp.secs_since(TIME_ORIGIN)
+    }
+
+    fn stamp_of(&self, t_s: f64) -> Stamp {
+        TIME_ORIGIN.offset_secs(t_s)
+    }
+
+    /// Takes one (validated) observation, whenever it arrives.
+    pub fn ingest(&mut self, obs: &Observation) -> Ingest {
+        let c = &obs.covariance_m2;
+        let r = Matrix2::new(c[0], c[1], c[2], c[3]);
+        if r.try_inverse().is_none() || !r.iter().all(|v| v.is_finite()) {
+            self.counters.rejected += 1;
+            return Ingest::Rejected;
+        }
+        if let Some(newest) = self.newest {
+            let late_s = newest.secs_since(obs.stamp);
+            if late_s > self.cfg.late_window_s {
+                self.counters.too_late += 1;
+                return Ingest::TooLate { late_s };
+            }
+        }
+        let robot = self.name(&obs.robot_id);
+        let camera = match obs.camera {
+            Camera::Left => 0,
+            Camera::Right => 1,
+        };
+        let key: Key = (obs.stamp.0, robot.clone(), obs.seq, camera);
+        let pos = self.pending.partition_point(|p| p.key < key);
+        if self.pending.get(pos).is_some_and(|p| p.key == key) {
+            self.counters.duplicates += 1;
+            return Ingest::Duplicate;
+        }
+        let input = ObsInput {
+            t_s: self.t_of(obs.stamp),
+            robot,
+            position_m: obs.position_m,
+            covariance_m2: r,
+            robot_pose: obs.robot_pose,
+        };
+        self.pending.insert(pos, Pending { key, input });
+        // Replay from the state just before the new observation.
+        let mut tracker = if pos == 0 {
+            self.base.clone()
+        } else {
+            self.snapshots[pos - 1].clone()
+        };
+        self.snapshots.truncate(pos);
+        for p in self.pending.iter().skip(pos) {
+            tracker.apply(&p.input);
+            self.snapshots.push_back(tracker.clone());
+        }
+        let replayed = self.pending.len() - pos - 1;
+        self.newest = Some(self.newest.map_or(obs.stamp, |n| n.max(obs.stamp)));
+        self.commit();
+        self.counters.applied += 1;
+        if replayed == 0 {
+            Ingest::Applied
+        } else {
+            self.counters.reordered += 1;
+            self.counters.replayed += replayed as u64;
+            Ingest::Reordered { replayed }
+        }
+    }
+
+    /// Folds observations that fell out of the late window into the base state.
+    fn commit(&mut self) {
+        let Some(newest) = self.newest else { return };
+        while self
+            .pending
+            .front()
+            .is_some_and(|p| newest.secs_since(Stamp(p.key.0)) > self.cfg.late_window_s)
+        {
+            self.pending.pop_front();
+            if let Some(s) = self.snapshots.pop_front() {
+                self.base = s;
+            }
+        }
+    }
+
+    /// The main track's filter predicted to `at` (no earlier than its own time).
+    pub fn filter_at(&self, at: Stamp) -> Option<BallFilter> {
+        let tracker = self.tracker();
+        let track = tracker.main()?;
+        let mut f = track.filter.clone();
+        let t_s = self.t_of(at);
+        if t_s > f.t_s {
+            let noise = tracker.noise_for(track);
+            let (x, p, _) = propagate(
+                &f.x,
+                &f.p,
+                t_s - f.t_s,
+                &tracker.config().motion,
+                tracker.bounds(),
+                &noise,
+            );
+            f = BallFilter { x, p, t_s };
+        }
+        Some(f)
+    }
+
+    /// The shared ball state at `at`, with its predicted path.
+    pub fn ball_state(&self, at: Stamp) -> Option<BallState> {
+        let tracker = self.tracker();
+        let track = tracker.main()?;
+        let f = self.filter_at(at)?;
+        let since_seen_s = f.t_s - track.last_hit_s;
+        let status = if since_seen_s > self.cfg.lost_after_s {
+            BallStatus::Lost
+        } else if since_seen_s > self.cfg.coasting_after_s {
+            BallStatus::Coasting
+        } else if speed(f.velocity()) < self.cfg.stopped_speed_mps {
+            BallStatus::Stopped
+        } else {
+            BallStatus::Tracking
+        };
+        let mut covariance = [0.0; 16];
+        for i in 0..4 {
+            for j in 0..4 {
+                covariance[i * 4 + j] = f.p[(i, j)];
+            }
+        }
+        let contributors = track
+            .contributors(track.last_hit_s, self.cfg.contributors_window_s)
+            .into_iter()
+            .filter_map(|i| tracker.robot_name(i).map(|n| n.to_string()))
+            .collect();
+        let (decel_samples, restitution_samples) = tracker.learning_counts();
+        Some(BallState {
+            version: proto::VERSION,
+            stamp: self.stamp_of(f.t_s),
+            position_m: f.position(),
+            velocity_mps: f.velocity(),
+            covariance,
+            status,
+            last_seen: Some(self.stamp_of(track.last_hit_s)),
+            contributors,
+            model: ModelParams {
+                rolling_decel_mps2: f.x[DECEL],
+                wall_restitution: f.x[RESTITUTION],
+                decel_samples,
+                restitution_samples,
+            },
+            prediction: self.prediction_of(&f, self.cfg.horizon_s),
+        })
+    }
+
+    fn prediction_of(&self, f: &BallFilter, horizon_s: f64) -> Prediction {
+        let tracker = self.tracker();
+        predict::path(
+            f.position(),
+            f.velocity(),
+            &f.model(&tracker.config().motion),
+            tracker.bounds(),
+            self.stamp_of(f.t_s),
+            horizon_s,
+            self.cfg.sample_dt_s,
+        )
+    }
+
+    /// The predicted path from `at` over `horizon_s`.
+    pub fn predict(&self, at: Stamp, horizon_s: f64) -> Option<Prediction> {
+        let f = self.filter_at(at)?;
+        Some(self.prediction_of(&f, horizon_s))
+    }
+
+    /// Where a robot at `robot_m` with top speed `speed_mps` can first meet the ball.
+    pub fn intercept(
+        &self,
+        at: Stamp,
+        robot_m: [f64; 2],
+        speed_mps: f64,
+    ) -> Option<InterceptSolution> {
+        let f = self.filter_at(at)?;
+        let tracker = self.tracker();
+        intercept(
+            f.position(),
+            f.velocity(),
+            &f.model(&tracker.config().motion),
+            tracker.bounds(),
+            robot_m,
+            speed_mps,
+        )
+    }
+
+    /// What the core has learned about each robot.
+    pub fn robots(&self) -> &[RobotTrust] {
+        self.tracker().robots()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proto::Pose2;
+
+    /// A tiny deterministic noise source for synthetic observations.
+    struct Lcg(u64);
+    impl Lcg {
+        fn uniform(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
+        }
+        fn normal(&mut self) -> f64 {
+            let (u1, u2) = (self.uniform().max(1e-12), self.uniform());
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        }
+    }
+
+    const T0: u64 = 1_767_225_600_000_000_000;
+
+    fn obs(robot: &str, seq: u64, t_s: f64, p: [f64; 2], sigma: f64) -> Observation {
+        Observation {
+            version: proto::VERSION,
+            robot_id: robot.to_string(),
+            seq,
+            camera: Camera::Left,
+            stamp: Stamp(T0).offset_secs(t_s),
+            position_m: p,
+            covariance_m2: [sigma * sigma, 0.0, 0.0, sigma * sigma],
+            confidence: 0.9,
+            robot_pose: Pose2 {
+                x_m: -1.5,
+                y_m: 0.0,
+                theta_rad: 0.0,
+            },
+            pixel: None,
+        }
+    }
+
+    /// A ball rolling along +x from x = −1 at 1 m/s with 0.3 m/s² deceleration, seen by
+    /// three robots at 15 Hz each with 2 cm noise.
+    fn rolling_observations(n_per_robot: usize) -> Vec<Observation> {
+        let mut rng = Lcg(42);
+        let mut out = Vec::new();
+        for k in 0..n_per_robot {
+            for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+                let t = k as f64 / 15.0 + r as f64 * 0.02;
+                let s = (1.0 * t - 0.15 * t * t).max(0.0);
+                let p = [-1.0 + s + 0.02 * rng.normal(), 0.3 + 0.02 * rng.normal()];
+                out.push(obs(robot, k as u64, t, p, 0.02));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn follows_a_rolling_ball() {
+        let mut f = Fusion::new(FusionConfig::default());
+        let all = rolling_observations(30);
+        for o in &all {
+            f.ingest(o);
+        }
+        let t = 29.0 / 15.0 + 0.04;
+        let st = f.ball_state(Stamp(T0).offset_secs(t)).expect("a state");
+        let truth_x = -1.0 + t - 0.15 * t * t;
+        assert!(
+            (st.position_m[0] - truth_x).abs() < 0.03,
+            "{:?} vs {truth_x}",
+            st.position_m
+        );
+        assert!(
+            (st.velocity_mps[0] - (1.0 - 0.3 * t)).abs() < 0.08,
+            "{:?}",
+            st.velocity_mps
+        );
+        assert_eq!(st.status, BallStatus::Tracking);
+        assert_eq!(st.contributors.len(), 3);
+    }
+
+    #[test]
+    fn late_observations_give_the_in_order_estimate() {
+        let ordered = rolling_observations(20);
+        let mut in_order = Fusion::new(FusionConfig::default());
+        for o in &ordered {
+            in_order.ingest(o);
+        }
+        // Deliver the same observations shuffled, each at most 0.4 s late.
+        let mut rng = Lcg(7);
+        let mut arrivals: Vec<(f64, &Observation)> = ordered
+            .iter()
+            .map(|o| (o.stamp.secs_since(Stamp(T0)) + 0.4 * rng.uniform(), o))
+            .collect();
+        arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut shuffled = Fusion::new(FusionConfig::default());
+        let mut reordered = 0;
+        for (_, o) in &arrivals {
+            if let Ingest::Reordered { .. } = shuffled.ingest(o) {
+                reordered += 1;
+            }
+        }
+        assert!(reordered > 10, "the test must really reorder ({reordered})");
+        assert_eq!(shuffled.counters().too_late, 0);
+        assert_eq!(shuffled.tracker(), in_order.tracker());
+        let at = Stamp(T0).offset_secs(2.0);
+        assert_eq!(shuffled.ball_state(at), in_order.ball_state(at));
+    }
+
+    #[test]
+    fn too_late_and_duplicates_are_counted_and_dropped() {
+        let mut f = Fusion::new(FusionConfig::default());
+        assert_eq!(
+            f.ingest(&obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+            Ingest::Applied
+        );
+        assert_eq!(
+            f.ingest(&obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+            Ingest::Duplicate
+        );
+        assert!(matches!(
+            f.ingest(&obs("b", 0, 0.3, [0.0, 0.0], 0.02)),
+            Ingest::TooLate { .. }
+        ));
+        let mut bad = obs("b", 1, 1.0, [0.0, 0.0], 0.02);
+        bad.covariance_m2 = [0.0; 4];
+        assert_eq!(f.ingest(&bad), Ingest::Rejected);
+        let c = f.counters();
+        assert_eq!(
+            (c.applied, c.duplicates, c.too_late, c.rejected),
+            (1, 1, 1, 1)
+        );
+    }
+
+    #[test]
+    fn phantom_from_one_robot_does_not_capture_the_estimate() {
+        let mut f = Fusion::new(FusionConfig::default());
+        let mut rng = Lcg(3);
+        // A ball at rest at the origin seen by a, b, c; robot c also reports a phantom at
+        // (1, 1) in every other frame.
+        for k in 0..60u64 {
+            let t = k as f64 / 15.0;
+            for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+                let p = [0.02 * rng.normal(), 0.02 * rng.normal()];
+                f.ingest(&obs(robot, 2 * k, t + 0.01 * r as f64, p, 0.02));
+            }
+            if k % 2 == 0 {
+                f.ingest(&obs("c", 2 * k + 1, t + 0.025, [1.0, 1.0], 0.02));
+            }
+        }
+        let st = f.ball_state(Stamp(T0).offset_secs(4.0)).expect("state");
+        assert!(
+            st.position_m[0].hypot(st.position_m[1]) < 0.03,
+            "{:?}",
+            st.position_m
+        );
+        let c = f
+            .robots()
+            .iter()
+            .find(|r| &*r.robot == "c")
+            .expect("robot c");
+        assert!(c.outlier_rate > 0.2, "{}", c.outlier_rate);
+    }
+
+    #[test]
+    fn a_kick_is_followed_within_a_third_of_a_second() {
+        let mut f = Fusion::new(FusionConfig::default());
+        let mut rng = Lcg(11);
+        let mut seq = 0;
+        // At rest at (−1, 0) until t = 2 s, then kicked to 2 m/s along +x; 0.3 s later the
+        // estimate must be on the moving ball.
+        let truth = |t: f64| {
+            let d = (t - 2.0).max(0.0);
+            -1.0 + 2.0 * d - 0.15 * d * d
+        };
+        for k in 0..35u64 {
+            let t = k as f64 / 15.0;
+            for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+                let tt = t + 0.02 * r as f64;
+                let p = [truth(tt) + 0.02 * rng.normal(), 0.02 * rng.normal()];
+                f.ingest(&obs(robot, seq, tt, p, 0.02));
+                seq += 1;
+            }
+        }
+        let at = 2.3;
+        let st = f.ball_state(Stamp(T0).offset_secs(at)).expect("state");
+        assert!(
+            (st.position_m[0] - truth(at)).abs() < 0.08,
+            "{:?} vs {}",
+            st.position_m,
+            truth(at)
+        );
+        assert!(st.velocity_mps[0] > 1.4, "{:?}", st.velocity_mps);
+    }
+}

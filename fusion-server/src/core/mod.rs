@@ -14,6 +14,7 @@ pub mod motion;
 pub mod predict;
 pub mod tracker;
 
-
-
-
+pub use fusion::{Fusion, FusionConfig, FusionCounters, Ingest};
+pub use intercept::InterceptSolution;
+pub use motion::{Bounds, MotionModel};
+pub use tracker::{ObsInput, RobotTrust, TrackerConfig};

@@ -287,7 +287,13 @@ mod tests {
     }
 
     /// Brute-force small-step integration of the same physics, the slow obvious reference.
-    fn integrate(p0: [f64; 2], v0: [f64; 2], t_s: f64, m: &MotionModel, b: &Bounds) -> ([f64; 2], [f64; 2], usize) {
+    fn integrate(
+        p0: [f64; 2],
+        v0: [f64; 2],
+        t_s: f64,
+        m: &MotionModel,
+        b: &Bounds,
+    ) -> ([f64; 2], [f64; 2], usize) {
         let dt = 1e-5;
         let (mut p, mut v) = (p0, v0);
         let mut hits = 0;
@@ -358,8 +364,16 @@ mod tests {
             let (p, v, hits) = integrate(p0, v0, t, &m, &b);
             assert_eq!(f.hits().count(), hits, "case {p0:?} {v0:?}");
             for k in 0..2 {
-                assert!((f.position[k] - p[k]).abs() < 2e-4, "{:?} vs {p:?}", f.position);
-                assert!((f.velocity[k] - v[k]).abs() < 2e-4, "{:?} vs {v:?}", f.velocity);
+                assert!(
+                    (f.position[k] - p[k]).abs() < 2e-4,
+                    "{:?} vs {p:?}",
+                    f.position
+                );
+                assert!(
+                    (f.velocity[k] - v[k]).abs() < 2e-4,
+                    "{:?} vs {v:?}",
+                    f.velocity
+                );
             }
             assert!(hits >= 1, "case {p0:?} should bounce");
         }

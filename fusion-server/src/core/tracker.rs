@@ -1,1 +1,535 @@
-//! todo
+//! Track management: which hypothesis each observation belongs to, when an alternative
+//! hypothesis takes over, and how much each robot is trusted.
+//!
+//! Every observation is gated (χ², 2 dof, on S = HPHᵀ + R) against every hypothesis and
+//! updates the closest one that accepts it. Observations no hypothesis accepts start a new
+//! one. A hypothesis replaces the main track when it is supported by more recent
+//! observations from enough distinct robots: that is how a kick or a relocation is followed
+//! within a few frames, and why a phantom seen by one robot does not capture the estimate.
+
+use super::filter::{BallFilter, DECEL, Innovation, ProcessNoise, RESTITUTION};
+use super::motion::{Bounds, MotionModel, speed};
+use nalgebra::Matrix2;
+use proto::Pose2;
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+/// One observation as the core sees it: capture time already on the fusion time axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObsInput {
+    /// Capture time, seconds since the fusion epoch.
+    pub t_s: f64,
+    pub robot: Arc<str>,
+    pub position_m: [f64; 2],
+    pub covariance_m2: Matrix2<f64>,
+    pub robot_pose: Pose2,
+}
+
+/// Tuning of the tracker. `Default` is what the server runs with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackerConfig {
+    /// χ² gate on the innovation (2 dof; 11.83 keeps 99.73 % of consistent observations).
+    pub gate_chi2: f64,
+    /// Velocity uncertainty of a new hypothesis.
+    pub spawn_velocity_sigma_mps: f64,
+    pub max_tracks: usize,
+    /// A hypothesis with no observation for this long is dropped.
+    pub candidate_ttl_s: f64,
+    /// Support is counted over this recent window.
+    pub promote_window_s: f64,
+    pub promote_min_hits: usize,
+    /// When the main track has had no support for this long, a hypothesis seen by a single
+    /// (well-behaved) robot may take over.
+    pub main_silence_s: f64,
+    /// Robots whose share of observations off the main track is above this cannot alone
+    /// promote a hypothesis (they see phantoms).
+    pub outlier_rate_max: f64,
+    /// Ball closer than this to a robot: it may be kicked or pushed at any moment.
+    pub near_robot_m: f64,
+    /// After a takeover (a kick), extra process noise for this long.
+    pub kick_boost_s: f64,
+    /// After a kick or a bounce the ball slides; do not learn the rolling deceleration then.
+    pub learn_quiet_s: f64,
+    /// Do not learn the deceleration below this speed (the stop dominates).
+    pub learn_min_speed_mps: f64,
+    pub learn_decel: bool,
+    pub learn_restitution: bool,
+    /// Base motion model; its deceleration and restitution are the starting values.
+    pub motion: MotionModel,
+    pub decel_sigma_mps2: f64,
+    pub restitution_sigma: f64,
+    pub noise: ProcessNoise,
+    /// Extra white-acceleration density per (m/s)² of speed.
+    pub accel_speed_gain: f64,
+    /// White-acceleration density near robots and just after a kick.
+    pub near_robot_accel_m2ps3: f64,
+    /// EWMA weight of one observation in a robot's trust estimate.
+    pub trust_alpha: f64,
+    pub trust_range: (f64, f64),
+}
+
+impl Default for TrackerConfig {
+    fn default() -> Self {
+        TrackerConfig {
+            gate_chi2: 11.83,
+            spawn_velocity_sigma_mps: 1.5,
+            max_tracks: 6,
+            candidate_ttl_s: 0.6,
+            promote_window_s: 0.4,
+            promote_min_hits: 3,
+            main_silence_s: 0.5,
+            outlier_rate_max: 0.1,
+            near_robot_m: 0.4,
+            kick_boost_s: 0.4,
+            learn_quiet_s: 0.4,
+            learn_min_speed_mps: 0.12,
+            learn_decel: true,
+            learn_restitution: true,
+            motion: MotionModel::default(),
+            decel_sigma_mps2: 0.1,
+            restitution_sigma: 0.15,
+            noise: ProcessNoise {
+                accel_m2ps3: 0.01,
+                rest_pos_m2ps: 2e-5,
+                rest_vel_m2ps3: 0.02,
+                decel_per_s: 1e-5,
+                restitution_per_s: 1e-5,
+                bounce_normal_frac: 0.15,
+                bounce_tangential_frac: 0.06,
+            },
+            accel_speed_gain: 0.05,
+            near_robot_accel_m2ps3: 2.0,
+            trust_alpha: 0.03,
+            trust_range: (0.2, 25.0),
+        }
+    }
+}
+
+/// What the tracker has learned about one robot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotTrust {
+    pub robot: Arc<str>,
+    pub pose: Pose2,
+    /// Capture time of its newest observation.
+    pub last_obs_s: f64,
+    /// Scale applied to the covariance it reports (1 = honest, > 1 = it under-reports).
+    pub covariance_scale: f64,
+    /// Share of its observations that did not fit the main track while others did.
+    pub outlier_rate: f64,
+    pub observations: u64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Track {
+    pub id: u64,
+    pub filter: BallFilter,
+    pub last_hit_s: f64,
+    /// Recent supporting observations: (time, robot index).
+    hits: VecDeque<(f64, usize)>,
+    quiet_until_s: f64,
+    boost_until_s: f64,
+}
+
+impl Track {
+    fn support(&self, now_s: f64, window_s: f64) -> (usize, usize, Vec<usize>) {
+        let mut robots: Vec<usize> = Vec::new();
+        let mut n = 0;
+        for (t, r) in self.hits.iter().rev() {
+            if *t < now_s - window_s {
+                break;
+            }
+            n += 1;
+            if !robots.contains(r) {
+                robots.push(*r);
+            }
+        }
+        (n, robots.len(), robots)
+    }
+
+    /// Robots that supported this track within `window_s`.
+    pub fn contributors(&self, now_s: f64, window_s: f64) -> Vec<usize> {
+        self.support(now_s, window_s).2
+    }
+}
+
+/// The whole tracking state. `Clone` is cheap enough to snapshot after every observation,
+/// which is how late observations are replayed in capture order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tracker {
+    cfg: Arc<TrackerConfig>,
+    bounds: Bounds,
+    tracks: Vec<Track>,
+    main: Option<usize>,
+    robots: Vec<RobotTrust>,
+    next_id: u64,
+    decel_updates: u32,
+    restitution_updates: u32,
+    /// Time of the newest applied observation.
+    pub t_s: f64,
+}
+
+const HIT_HISTORY_S: f64 = 1.5;
+const OUTLIER_ALPHA: f64 = 0.03;
+
+impl Tracker {
+    pub fn new(cfg: Arc<TrackerConfig>, bounds: Bounds) -> Self {
+        Tracker {
+            cfg,
+            bounds,
+            tracks: Vec::new(),
+            main: None,
+            robots: Vec::new(),
+            next_id: 1,
+            decel_updates: 0,
+            restitution_updates: 0,
+            t_s: f64::NEG_INFINITY,
+        }
+    }
+
+    pub fn config(&self) -> &TrackerConfig {
+        &self.cfg
+    }
+
+    pub fn bounds(&self) -> &Bounds {
+        &self.bounds
+    }
+
+    pub fn main(&self) -> Option<&Track> {
+        self.main.and_then(|i| self.tracks.get(i))
+    }
+
+    pub fn tracks(&self) -> &[Track] {
+        &self.tracks
+    }
+
+    pub fn robots(&self) -> &[RobotTrust] {
+        &self.robots
+    }
+
+    pub fn robot_name(&self, index: usize) -> Option<&Arc<str>> {
+        self.robots.get(index).map(|r| &r.robot)
+    }
+
+    /// Observations / bounces that informed the learned deceleration / restitution.
+    pub fn learning_counts(&self) -> (u32, u32) {
+        (self.decel_updates, self.restitution_updates)
+    }
+
+    /// The process noise for a track predicted from its current state.
+    pub fn noise_for(&self, track: &Track) -> ProcessNoise {
+        let cfg = &self.cfg;
+        let mut noise = cfg.noise;
+        let s = speed(track.filter.velocity());
+        noise.accel_m2ps3 += cfg.accel_speed_gain * s * s;
+        if self.near_robot(track.filter.position(), track.filter.t_s)
+            || track.filter.t_s < track.boost_until_s
+        {
+            noise.accel_m2ps3 = noise.accel_m2ps3.max(cfg.near_robot_accel_m2ps3);
+            noise.rest_vel_m2ps3 = noise.rest_vel_m2ps3.max(cfg.near_robot_accel_m2ps3);
+        }
+        noise
+    }
+
+    fn near_robot(&self, p: [f64; 2], t_s: f64) -> bool {
+        self.robots.iter().any(|r| {
+            t_s - r.last_obs_s < 1.0
+                && (r.pose.x_m - p[0]).hypot(r.pose.y_m - p[1]) < self.cfg.near_robot_m
+        })
+    }
+
+    fn robot_index(&mut self, o: &ObsInput) -> usize {
+        if let Some(i) = self.robots.iter().position(|r| r.robot == o.robot) {
+            return i;
+        }
+        self.robots.push(RobotTrust {
+            robot: o.robot.clone(),
+            pose: o.robot_pose,
+            last_obs_s: o.t_s,
+            covariance_scale: 1.0,
+            outlier_rate: 0.0,
+            observations: 0,
+        });
+        self.robots.len() - 1
+    }
+
+    /// Applies one observation at its capture time (callers feed them in time order).
+    pub fn apply(&mut self, o: &ObsInput) {
+        let ri = self.robot_index(o);
+        {
+            let r = &mut self.robots[ri];
+            r.pose = o.robot_pose;
+            r.last_obs_s = r.last_obs_s.max(o.t_s);
+            r.observations += 1;
+        }
+        self.t_s = self.t_s.max(o.t_s);
+        self.predict_all(o.t_s);
+
+        let r_eff = o.covariance_m2 * self.robots[ri].covariance_scale;
+        let gate = self.cfg.gate_chi2;
+        let best = self
+            .tracks
+            .iter()
+            .enumerate()
+            .map(|(i, tr)| (i, tr.filter.innovation(o.position_m, &r_eff)))
+            .filter(|(_, inn)| inn.d2 < gate)
+            .min_by(|a, b| a.1.d2.total_cmp(&b.1.d2))
+            .map(|(i, _)| i);
+
+        self.learn_trust(ri, o);
+        self.learn_outlier_rate(ri, o.t_s, best.is_some() && best == self.main);
+
+        match best {
+            Some(i) => self.update_track(i, ri, o, &r_eff),
+            None => self.spawn(ri, o, &r_eff),
+        }
+        self.promote(o.t_s);
+        self.prune(o.t_s);
+    }
+
+    fn predict_all(&mut self, t_s: f64) {
+        let quiet = self.cfg.learn_quiet_s;
+        for i in 0..self.tracks.len() {
+            let noise = self.noise_for(&self.tracks[i]);
+            let track = &mut self.tracks[i];
+            if let Some(flight) =
+                track
+                    .filter
+                    .predict_to(t_s, &self.cfg.motion, &self.bounds, &noise)
+                && flight.hits().next().is_some()
+            {
+                // The ball slides for a moment after a bounce.
+                track.quiet_until_s = track.quiet_until_s.max(t_s + quiet);
+            }
+        }
+    }
+
+    fn update_track(&mut self, i: usize, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
+        let is_main = self.main == Some(i);
+        let near = self.near_robot(self.tracks[i].filter.position(), o.t_s);
+        let track = &self.tracks[i];
+        let learn_decel = is_main
+            && self.cfg.learn_decel
+            && !near
+            && o.t_s >= track.quiet_until_s
+            && o.t_s >= track.boost_until_s
+            && speed(track.filter.velocity()) > self.cfg.learn_min_speed_mps;
+        let learn_restitution = is_main
+            && self.cfg.learn_restitution
+            && !near
+            && o.t_s >= track.boost_until_s
+            && track.filter.p[(0, RESTITUTION)].abs() + track.filter.p[(1, RESTITUTION)].abs()
+                > 1e-9;
+        let track = &mut self.tracks[i];
+        let before = track.filter.x[RESTITUTION];
+        track
+            .filter
+            .update(o.position_m, r_eff, [learn_decel, learn_restitution]);
+        track.last_hit_s = track.last_hit_s.max(o.t_s);
+        track.hits.push_back((o.t_s, ri));
+        while track
+            .hits
+            .front()
+            .is_some_and(|(t, _)| *t < o.t_s - HIT_HISTORY_S)
+        {
+            track.hits.pop_front();
+        }
+        if learn_decel {
+            self.decel_updates = self.decel_updates.saturating_add(1);
+        }
+        if learn_restitution
+            && track.quiet_until_s > o.t_s
+            && (before - track.filter.x[RESTITUTION]).abs() > 1e-6
+        {
+            // Count a bounce once: the first observation after it that informs the estimate.
+            if track.quiet_until_s - o.t_s > self.cfg.learn_quiet_s - 0.1 {
+                self.restitution_updates = self.restitution_updates.saturating_add(1);
+            }
+        }
+    }
+
+    fn spawn(&mut self, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
+        let cfg = &self.cfg;
+        let params = match self.main() {
+            Some(m) => [
+                (m.filter.x[DECEL], m.filter.p[(DECEL, DECEL)]),
+                (
+                    m.filter.x[RESTITUTION],
+                    m.filter.p[(RESTITUTION, RESTITUTION)],
+                ),
+            ],
+            None => [
+                (cfg.motion.decel_mps2, cfg.decel_sigma_mps2.powi(2)),
+                (cfg.motion.restitution, cfg.restitution_sigma.powi(2)),
+            ],
+        };
+        let filter = BallFilter::start(
+            o.position_m,
+            r_eff,
+            o.t_s,
+            cfg.spawn_velocity_sigma_mps,
+            params,
+        );
+        let track = Track {
+            id: self.next_id,
+            filter,
+            last_hit_s: o.t_s,
+            hits: VecDeque::from([(o.t_s, ri)]),
+            quiet_until_s: o.t_s + cfg.learn_quiet_s,
+            boost_until_s: o.t_s,
+        };
+        self.next_id += 1;
+        if self.tracks.len() >= cfg.max_tracks {
+            // Make room by dropping the stalest hypothesis that is not the main track.
+            if let Some(victim) = (0..self.tracks.len())
+                .filter(|i| Some(*i) != self.main)
+                .min_by(|a, b| {
+                    self.tracks[*a]
+                        .last_hit_s
+                        .total_cmp(&self.tracks[*b].last_hit_s)
+                })
+            {
+                self.remove(victim);
+            }
+        }
+        self.tracks.push(track);
+        if self.main.is_none() && self.tracks.len() == 1 {
+            self.main = Some(0);
+        }
+    }
+
+    /// A hypothesis takes over when it is better supported than the main track.
+    fn promote(&mut self, t_s: f64) {
+        let cfg = self.cfg.clone();
+        let window = cfg.promote_window_s;
+        let active_robots = self
+            .robots
+            .iter()
+            .filter(|r| t_s - r.last_obs_s < 1.0)
+            .count();
+        let (main_hits, main_silent) = match self.main() {
+            Some(m) => (
+                m.support(t_s, window).0,
+                t_s - m.last_hit_s > cfg.main_silence_s,
+            ),
+            None => (0, true),
+        };
+        let mut best: Option<(usize, usize)> = None;
+        for (i, tr) in self.tracks.iter().enumerate() {
+            if Some(i) == self.main {
+                continue;
+            }
+            let (hits, n_robots, robots) = tr.support(t_s, window);
+            if hits < cfg.promote_min_hits || hits <= 2 * main_hits {
+                continue;
+            }
+            let diverse = n_robots >= active_robots.clamp(1, 2);
+            let credible = robots
+                .iter()
+                .all(|r| self.robots[*r].outlier_rate <= cfg.outlier_rate_max);
+            if (diverse || (main_silent && credible)) && best.is_none_or(|(_, h)| hits > h) {
+                best = Some((i, hits));
+            }
+        }
+        let Some((i, _)) = best else { return };
+        if let Some(old) = self.main() {
+            // The floor and the walls did not change: keep what was learned about them.
+            let keep = [
+                (old.filter.x[DECEL], old.filter.p[(DECEL, DECEL)]),
+                (
+                    old.filter.x[RESTITUTION],
+                    old.filter.p[(RESTITUTION, RESTITUTION)],
+                ),
+            ];
+            let f = &mut self.tracks[i].filter;
+            for (k, (v, var)) in [(DECEL, keep[0]), (RESTITUTION, keep[1])] {
+                f.x[k] = v;
+                for j in 0..6 {
+                    f.p[(k, j)] = 0.0;
+                    f.p[(j, k)] = 0.0;
+                }
+                f.p[(k, k)] = var;
+            }
+        }
+        let tr = &mut self.tracks[i];
+        tr.boost_until_s = t_s + cfg.kick_boost_s;
+        tr.quiet_until_s = tr.quiet_until_s.max(t_s + cfg.learn_quiet_s);
+        self.main = Some(i);
+    }
+
+    fn prune(&mut self, t_s: f64) {
+        let ttl = self.cfg.candidate_ttl_s;
+        let mut i = 0;
+        while i < self.tracks.len() {
+            let stale = Some(i) != self.main && t_s - self.tracks[i].last_hit_s > ttl;
+            let merged = Some(i) != self.main && self.duplicates_main(i);
+            if stale || merged {
+                self.remove(i);
+            } else {
+                i += 1;
+            }
+        }
+    }
+
+    /// A hypothesis that has converged onto the main track is redundant.
+    fn duplicates_main(&self, i: usize) -> bool {
+        let (Some(m), Some(c)) = (self.main(), self.tracks.get(i)) else {
+            return false;
+        };
+        let dx = c.filter.x.fixed_rows::<4>(0) - m.filter.x.fixed_rows::<4>(0);
+        let p = c.filter.p.fixed_view::<4, 4>(0, 0) + m.filter.p.fixed_view::<4, 4>(0, 0);
+        p.try_inverse()
+            .is_some_and(|pi| (dx.transpose() * pi * dx)[(0, 0)] < 1.0)
+    }
+
+    fn remove(&mut self, i: usize) {
+        self.tracks.remove(i);
+        self.main = match self.main {
+            Some(m) if m == i => None,
+            Some(m) if m > i => Some(m - 1),
+            other => other,
+        };
+    }
+
+    /// Learns how a robot's residuals compare with the covariance it reports:
+    /// E[yᵀR⁻¹y] = tr(R⁻¹HPHᵀ) + 2·scale, measured against the settled main track.
+    fn learn_trust(&mut self, ri: usize, o: &ObsInput) {
+        let Some(m) = self.main() else { return };
+        let t_s = o.t_s;
+        if t_s < m.boost_until_s
+            || t_s - m.last_hit_s > 0.3
+            || self.near_robot(m.filter.position(), t_s)
+        {
+            return;
+        }
+        let Some(r_inv) = o.covariance_m2.try_inverse() else {
+            return;
+        };
+        let inn: Innovation = m.filter.innovation(o.position_m, &o.covariance_m2);
+        let raw = (inn.y.transpose() * r_inv * inn.y)[(0, 0)];
+        if raw > 60.0 {
+            return; // Another object altogether, not noise.
+        }
+        let prior = (r_inv * m.filter.p.fixed_view::<2, 2>(0, 0)).trace();
+        let sample = ((raw - prior) / 2.0).clamp(0.0, 30.0);
+        let (lo, hi) = self.cfg.trust_range;
+        let alpha = self.cfg.trust_alpha;
+        let r = &mut self.robots[ri];
+        r.covariance_scale = ((1.0 - alpha) * r.covariance_scale + alpha * sample).clamp(lo, hi);
+    }
+
+    /// How often a robot reports something off the main track while other robots confirm it.
+    fn learn_outlier_rate(&mut self, ri: usize, t_s: f64, on_main: bool) {
+        let Some(m) = self.main() else { return };
+        let confirmed_by_others = m
+            .hits
+            .iter()
+            .rev()
+            .take_while(|(t, _)| *t > t_s - 0.3)
+            .any(|(_, r)| *r != ri);
+        if confirmed_by_others {
+            let r = &mut self.robots[ri];
+            let x = if on_main { 0.0 } else { 1.0 };
+            r.outlier_rate = (1.0 - OUTLIER_ALPHA) * r.outlier_rate + OUTLIER_ALPHA * x;
+        }
+    }
+}
