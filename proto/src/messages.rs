@@ -117,7 +117,7 @@ pub struct ModelParams {
     pub rolling_decel_mps2: f64,
     /// Wall coefficient of restitution (normal speed out / in).
     pub wall_restitution: f64,
-    /// Number of rolling segments that informed the deceleration estimate.
+    /// Number of observations that informed the deceleration estimate.
     pub decel_samples: u32,
     /// Number of bounces that informed the restitution estimate.
     pub restitution_samples: u32,

@@ -24,18 +24,29 @@ pub struct Stamp(pub u64);
 
 impl Stamp {
     const NS_PER_S: f64 = 1e9;
+    const NS_PER_S_U64: u64 = 1_000_000_000;
 
-    /// A stamp from seconds since the epoch; negative or non-finite seconds give 0.
+    /// A stamp from seconds since the epoch; negative or non-finite seconds give 0, seconds
+    /// past the end of `u64` nanoseconds saturate.
+    ///
+    /// Whole seconds and the fraction are converted separately: present-day times are
+    /// ~1.7e18 ns, beyond the 2^53 integers an `f64` holds exactly, so `secs * 1e9` would
+    /// be off by up to a few hundred nanoseconds.
     pub fn from_secs_f64(secs: f64) -> Self {
-        if secs.is_finite() && secs > 0.0 {
-            Stamp((secs * Self::NS_PER_S).round() as u64)
-        } else {
-            Stamp(0)
+        if !(secs.is_finite() && secs > 0.0) {
+            return Stamp(0);
         }
+        let whole = secs.trunc();
+        let frac_ns = ((secs - whole) * Self::NS_PER_S).round() as u64;
+        // `as` saturates for floats beyond u64::MAX.
+        let whole_ns = (whole as u64).saturating_mul(Self::NS_PER_S_U64);
+        Stamp(whole_ns.saturating_add(frac_ns))
     }
 
+    /// Seconds since the epoch (whole seconds and fraction converted separately, so the
+    /// result is within one ulp of the exact value).
     pub fn as_secs_f64(self) -> f64 {
-        self.0 as f64 / Self::NS_PER_S
+        (self.0 / Self::NS_PER_S_U64) as f64 + (self.0 % Self::NS_PER_S_U64) as f64 / Self::NS_PER_S
     }
 
     /// `self - earlier` in seconds (negative when `earlier` is later).
@@ -71,5 +82,16 @@ mod tests {
         assert!((b.secs_since(a) + 0.75).abs() < 1e-9);
         assert_eq!(Stamp::from_secs_f64(f64::NAN), Stamp(0));
         assert_eq!(Stamp(5).offset_secs(-1.0), Stamp(0));
+    }
+
+    #[test]
+    fn present_day_seconds_keep_nanosecond_precision() {
+        let s = Stamp(1_700_000_000_123_456_789);
+        let back = Stamp::from_secs_f64(s.as_secs_f64());
+        // An f64 near 1.7e9 s resolves ~240 ns; the conversion must not add more error.
+        assert!(back.0.abs_diff(s.0) <= 240, "{back:?} vs {s:?}");
+        assert_eq!(Stamp::from_secs_f64(-1.0), Stamp(0));
+        assert_eq!(Stamp::from_secs_f64(1e30), Stamp(u64::MAX));
+        assert_eq!(Stamp::from_secs_f64(0.5), Stamp(500_000_000));
     }
 }

@@ -137,8 +137,8 @@ fn check_covariance<const N: usize>(field: &'static str, m: &[f64]) -> Result<()
     for i in 0..N {
         for j in 0..=i {
             let mut sum = m[i * N + j];
-            for k in 0..j {
-                sum -= l[i][k] * l[j][k];
+            for (lik, ljk) in l[i][..j].iter().zip(&l[j][..j]) {
+                sum -= lik * ljk;
             }
             if i == j {
                 if sum <= 0.0 || !sum.is_finite() {

@@ -1,0 +1,228 @@
+//! One sound example of every message, as a receiver at [`NOW`] on the default pitch would
+//! accept it. The same values appear in `docs/protocol.md`.
+
+use proto::{
+    BallState, BallStatus, BounceEvent, Camera, CameraFootprint, HeadJoints, Intercept,
+    ModelParams, Observation, PathSample, Pitch, PixelBall, Pose2, Prediction, RobotStatus,
+    StageTiming, Stamp, StopPoint, VERSION, ValidationContext, ValidationError, WallSide,
+};
+
+/// The receiver's clock in the examples: 2023-11-14T22:13:20Z.
+pub const NOW: Stamp = Stamp(1_700_000_000_000_000_000);
+
+/// The receiver's context: default pitch and tolerances, clock at [`NOW`].
+pub fn ctx() -> ValidationContext {
+    ValidationContext::new(Pitch::default(), NOW)
+}
+
+pub fn observation() -> Observation {
+    Observation {
+        version: VERSION,
+        robot_id: "miro1".to_string(),
+        seq: 1842,
+        camera: Camera::Left,
+        stamp: NOW.offset_secs(-0.035),
+        position_m: [0.85, -0.32],
+        covariance_m2: [0.0025, 0.0004, 0.0004, 0.0016],
+        confidence: 0.93,
+        robot_pose: Pose2 {
+            x_m: -0.6,
+            y_m: -0.4,
+            theta_rad: 0.35,
+        },
+        pixel: Some(PixelBall {
+            u_px: 412.5,
+            v_px: 301.0,
+            radius_px: 18.2,
+        }),
+    }
+}
+
+pub fn robot_status() -> RobotStatus {
+    RobotStatus {
+        version: VERSION,
+        robot_id: "miro1".to_string(),
+        stamp: NOW.offset_secs(-0.02),
+        pose: Pose2 {
+            x_m: -0.6,
+            y_m: -0.4,
+            theta_rad: 0.35,
+        },
+        pose_covariance: [
+            0.0004, 0.0001, 0.0, //
+            0.0001, 0.0004, 0.0, //
+            0.0, 0.0, 0.0025,
+        ],
+        head: HeadJoints {
+            lift_rad: 0.6,
+            yaw_rad: -0.1,
+            pitch_rad: 0.2,
+        },
+        fps: 14.8,
+        timings: vec![
+            StageTiming {
+                stage: "capture".to_string(),
+                ms: 3.1,
+            },
+            StageTiming {
+                stage: "detect".to_string(),
+                ms: 21.4,
+            },
+            StageTiming {
+                stage: "project".to_string(),
+                ms: 0.2,
+            },
+        ],
+        footprints: vec![
+            CameraFootprint {
+                camera: Camera::Left,
+                polygon_m: vec![[-0.35, -0.2], [0.4, 0.05], [0.2, 0.6], [-0.4, 0.0]],
+            },
+            CameraFootprint {
+                camera: Camera::Right,
+                polygon_m: vec![[-0.3, -0.35], [0.55, -0.6], [0.6, 0.0], [-0.25, -0.15]],
+            },
+        ],
+    }
+}
+
+pub fn prediction() -> Prediction {
+    Prediction {
+        version: VERSION,
+        stamp: NOW,
+        horizon_s: 2.0,
+        samples: vec![
+            PathSample {
+                t_s: 0.0,
+                position_m: [1.2, 0.4],
+                velocity_mps: [1.1, 0.3],
+            },
+            PathSample {
+                t_s: 1.0,
+                position_m: [1.83, 0.64],
+                velocity_mps: [-0.35, 0.2],
+            },
+            PathSample {
+                t_s: 2.0,
+                position_m: [1.62, 0.76],
+                velocity_mps: [-0.08, 0.04],
+            },
+        ],
+        bounces: vec![BounceEvent {
+            t_s: 0.62,
+            position_m: [1.91, 0.58],
+            wall: WallSide::XMax,
+        }],
+        stop: Some(StopPoint {
+            t_s: 2.4,
+            position_m: [1.6, 0.77],
+        }),
+    }
+}
+
+pub fn ball_state() -> BallState {
+    BallState {
+        version: VERSION,
+        stamp: NOW,
+        position_m: [1.2, 0.4],
+        velocity_mps: [1.1, 0.3],
+        covariance: [
+            0.0009, 0.0001, 0.0005, 0.0, //
+            0.0001, 0.0009, 0.0, 0.0005, //
+            0.0005, 0.0, 0.01, 0.001, //
+            0.0, 0.0005, 0.001, 0.01,
+        ],
+        status: BallStatus::Tracking,
+        last_seen: Some(NOW.offset_secs(-0.035)),
+        contributors: vec!["miro1".to_string(), "miro3".to_string()],
+        model: ModelParams {
+            rolling_decel_mps2: 0.45,
+            wall_restitution: 0.55,
+            decel_samples: 12,
+            restitution_samples: 4,
+        },
+        prediction: prediction(),
+    }
+}
+
+pub fn intercept() -> Intercept {
+    Intercept {
+        version: VERSION,
+        robot_id: "miro2".to_string(),
+        stamp: NOW,
+        reachable_in_motion: true,
+        t_s: 1.35,
+        point_m: [1.78, 0.69],
+    }
+}
+
+pub fn pitch() -> Pitch {
+    Pitch::default()
+}
+
+/// Every message's example as pretty JSON (fields in declaration order), named and ordered
+/// like `proto::schema::all()`.
+pub fn all_pretty() -> Vec<(&'static str, String)> {
+    fn pretty<T: serde::Serialize>(msg: &T) -> String {
+        serde_json::to_string_pretty(msg).expect("examples serialise")
+    }
+    vec![
+        ("Observation", pretty(&observation())),
+        ("RobotStatus", pretty(&robot_status())),
+        ("BallState", pretty(&ball_state())),
+        ("Prediction", pretty(&prediction())),
+        ("Intercept", pretty(&intercept())),
+        ("Pitch", pretty(&pitch())),
+    ]
+}
+
+/// Every message's example as a JSON value, named and ordered like `proto::schema::all()`.
+pub fn all_json() -> Vec<(&'static str, serde_json::Value)> {
+    all_pretty()
+        .into_iter()
+        .map(|(name, text)| (name, serde_json::from_str(&text).expect("valid JSON")))
+        .collect()
+}
+
+/// One value of every `ValidationError` variant. The `match` makes this fail to compile
+/// when a variant is added, so the tests that use it cannot silently miss one.
+pub fn one_error_of_each_kind() -> Vec<ValidationError> {
+    let all = vec![
+        ValidationError::UnsupportedVersion {
+            found: 2,
+            expected: 1,
+        },
+        ValidationError::NonFinite { field: "f" },
+        ValidationError::BadRobotId(String::new()),
+        ValidationError::CovarianceNotSymmetric { field: "c" },
+        ValidationError::CovarianceNotPositiveDefinite { field: "c" },
+        ValidationError::ConfidenceOutOfRange(2.0),
+        ValidationError::OutsidePitch {
+            x_m: 9.0,
+            y_m: 0.0,
+            outside_m: 7.0,
+        },
+        ValidationError::StampOutOfRange {
+            skew_s: 11.0,
+            limit_s: 10.0,
+        },
+        ValidationError::OutOfRange {
+            field: "f",
+            value: -1.0,
+        },
+    ];
+    for e in &all {
+        match e {
+            ValidationError::UnsupportedVersion { .. }
+            | ValidationError::NonFinite { .. }
+            | ValidationError::BadRobotId(_)
+            | ValidationError::CovarianceNotSymmetric { .. }
+            | ValidationError::CovarianceNotPositiveDefinite { .. }
+            | ValidationError::ConfidenceOutOfRange(_)
+            | ValidationError::OutsidePitch { .. }
+            | ValidationError::StampOutOfRange { .. }
+            | ValidationError::OutOfRange { .. } => {}
+        }
+    }
+    all
+}

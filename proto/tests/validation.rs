@@ -1,0 +1,407 @@
+//! `validate()`: a sound message of each inbound type passes, and each way of being wrong
+//! is rejected with its own `ValidationError` (and `reason()` label).
+
+mod support;
+
+use proto::{Pitch, Validate, ValidationError};
+use std::collections::HashSet;
+use support::checks::*;
+use support::examples::{self, ctx};
+
+#[test]
+fn sound_messages_validate() {
+    assert_accepted(&examples::observation(), &ctx());
+    assert_accepted(&examples::robot_status(), &ctx());
+    assert_accepted(&examples::prediction(), &ctx());
+    assert_accepted(&examples::ball_state(), &ctx());
+    assert_accepted(&examples::pitch(), &ctx());
+    let mut no_pixel = examples::observation();
+    no_pixel.pixel = None;
+    assert_accepted(&no_pixel, &ctx());
+}
+
+mod observation {
+    use super::*;
+    use proto::Observation;
+
+    fn base() -> Observation {
+        examples::observation()
+    }
+
+    #[test]
+    fn version() {
+        check_version(&base(), |o, v| o.version = v);
+    }
+
+    #[test]
+    fn robot_id() {
+        check_robot_id(&base(), |o, id| o.robot_id = id);
+    }
+
+    #[test]
+    fn non_finite() {
+        check_non_finite::<Observation>(
+            &base(),
+            &[
+                ("position_m", |o, v| o.position_m[0] = v),
+                ("position_m", |o, v| o.position_m[1] = v),
+                ("confidence", |o, v| o.confidence = v),
+                ("robot_pose", |o, v| o.robot_pose.x_m = v),
+                ("robot_pose", |o, v| o.robot_pose.y_m = v),
+                ("robot_pose", |o, v| o.robot_pose.theta_rad = v),
+                ("pixel", |o, v| o.pixel.as_mut().expect("pixel").u_px = v),
+                ("pixel", |o, v| o.pixel.as_mut().expect("pixel").v_px = v),
+                ("pixel", |o, v| {
+                    o.pixel.as_mut().expect("pixel").radius_px = v
+                }),
+                ("covariance_m2", |o, v| o.covariance_m2[0] = v),
+                ("covariance_m2", |o, v| o.covariance_m2[2] = v),
+            ],
+        );
+    }
+
+    fn cov(o: &mut Observation) -> &mut [f64] {
+        &mut o.covariance_m2
+    }
+
+    #[test]
+    fn covariance() {
+        check_covariance(&base(), "covariance_m2", 2, cov);
+    }
+
+    #[test]
+    fn confidence() {
+        for bad in [-0.01, 1.01, -1e300] {
+            let mut o = base();
+            o.confidence = bad;
+            assert_eq!(
+                o.validate(&ctx()),
+                Err(ValidationError::ConfidenceOutOfRange(bad))
+            );
+        }
+        for good in [0.0, 1.0] {
+            let mut o = base();
+            o.confidence = good;
+            assert_accepted(&o, &ctx());
+        }
+    }
+
+    #[test]
+    fn ball_position_outside_pitch() {
+        check_position(&base(), |o, p| o.position_m = p);
+    }
+
+    #[test]
+    fn robot_position_outside_pitch() {
+        check_position(&base(), |o, p| {
+            o.robot_pose.x_m = p[0];
+            o.robot_pose.y_m = p[1];
+        });
+    }
+
+    #[test]
+    fn stamp() {
+        check_stamp(&base(), |o, s| o.stamp = s);
+    }
+}
+
+mod robot_status {
+    use super::*;
+    use proto::RobotStatus;
+
+    fn base() -> RobotStatus {
+        examples::robot_status()
+    }
+
+    #[test]
+    fn version() {
+        check_version(&base(), |m, v| m.version = v);
+    }
+
+    #[test]
+    fn robot_id() {
+        check_robot_id(&base(), |m, id| m.robot_id = id);
+    }
+
+    #[test]
+    fn non_finite() {
+        check_non_finite::<RobotStatus>(
+            &base(),
+            &[
+                ("pose", |m, v| m.pose.x_m = v),
+                ("pose", |m, v| m.pose.y_m = v),
+                ("pose", |m, v| m.pose.theta_rad = v),
+                ("head", |m, v| m.head.lift_rad = v),
+                ("head", |m, v| m.head.yaw_rad = v),
+                ("head", |m, v| m.head.pitch_rad = v),
+                ("fps", |m, v| m.fps = v),
+                ("timings", |m, v| m.timings[1].ms = v),
+                ("footprints", |m, v| m.footprints[1].polygon_m[2][0] = v),
+                ("footprints", |m, v| m.footprints[0].polygon_m[0][1] = v),
+                ("pose_covariance", |m, v| m.pose_covariance[4] = v),
+                ("pose_covariance", |m, v| m.pose_covariance[6] = v),
+            ],
+        );
+    }
+
+    fn cov(m: &mut RobotStatus) -> &mut [f64] {
+        &mut m.pose_covariance
+    }
+
+    #[test]
+    fn covariance() {
+        check_covariance(&base(), "pose_covariance", 3, cov);
+    }
+
+    #[test]
+    fn out_of_range() {
+        check_out_of_range::<RobotStatus>(
+            &base(),
+            &[
+                ("fps", -1.0, |m, v| m.fps = v),
+                ("fps", 2e4, |m, v| m.fps = v),
+                ("timings", -0.5, |m, v| m.timings[0].ms = v),
+                ("timings", 2e6, |m, v| m.timings[2].ms = v),
+            ],
+        );
+    }
+
+    #[test]
+    fn pose_outside_pitch() {
+        check_position(&base(), |m, p| {
+            m.pose.x_m = p[0];
+            m.pose.y_m = p[1];
+        });
+    }
+
+    #[test]
+    fn stamp() {
+        check_stamp(&base(), |m, s| m.stamp = s);
+    }
+}
+
+mod prediction {
+    use super::*;
+    use proto::Prediction;
+
+    fn base() -> Prediction {
+        examples::prediction()
+    }
+
+    #[test]
+    fn version() {
+        check_version(&base(), |m, v| m.version = v);
+    }
+
+    #[test]
+    fn non_finite() {
+        check_non_finite::<Prediction>(
+            &base(),
+            &[
+                ("horizon_s", |m, v| m.horizon_s = v),
+                ("samples", |m, v| m.samples[1].t_s = v),
+                ("samples", |m, v| m.samples[1].position_m[0] = v),
+                ("samples", |m, v| m.samples[2].position_m[1] = v),
+                ("samples", |m, v| m.samples[0].velocity_mps[1] = v),
+                ("bounces", |m, v| m.bounces[0].t_s = v),
+                ("bounces", |m, v| m.bounces[0].position_m[1] = v),
+                ("stop", |m, v| m.stop.as_mut().expect("stop").t_s = v),
+                ("stop", |m, v| {
+                    m.stop.as_mut().expect("stop").position_m[0] = v
+                }),
+            ],
+        );
+    }
+
+    #[test]
+    fn out_of_range() {
+        check_out_of_range::<Prediction>(
+            &base(),
+            &[
+                ("horizon_s", -0.1, |m, v| m.horizon_s = v),
+                ("horizon_s", 3601.0, |m, v| m.horizon_s = v),
+                ("stop.t_s", -1.0, |m, v| {
+                    m.stop.as_mut().expect("stop").t_s = v
+                }),
+            ],
+        );
+    }
+
+    #[test]
+    fn sample_outside_pitch() {
+        check_position(&base(), |m, p| m.samples[2].position_m = p);
+    }
+
+    #[test]
+    fn stamp() {
+        check_stamp(&base(), |m, s| m.stamp = s);
+    }
+}
+
+mod ball_state {
+    use super::*;
+    use proto::BallState;
+
+    fn base() -> BallState {
+        examples::ball_state()
+    }
+
+    #[test]
+    fn version() {
+        check_version(&base(), |m, v| m.version = v);
+        // The inner prediction's version is checked too.
+        check_version(&base(), |m, v| m.prediction.version = v);
+    }
+
+    #[test]
+    fn contributor_id() {
+        check_robot_id(&base(), |m, id| m.contributors[1] = id);
+    }
+
+    #[test]
+    fn non_finite() {
+        check_non_finite::<BallState>(
+            &base(),
+            &[
+                ("position_m", |m, v| m.position_m[1] = v),
+                ("velocity_mps", |m, v| m.velocity_mps[0] = v),
+                ("covariance", |m, v| m.covariance[15] = v),
+                ("covariance", |m, v| m.covariance[7] = v),
+                ("model", |m, v| m.model.rolling_decel_mps2 = v),
+                ("model", |m, v| m.model.wall_restitution = v),
+                ("horizon_s", |m, v| m.prediction.horizon_s = v),
+                ("samples", |m, v| m.prediction.samples[0].t_s = v),
+            ],
+        );
+    }
+
+    fn cov(m: &mut BallState) -> &mut [f64] {
+        &mut m.covariance
+    }
+
+    #[test]
+    fn covariance() {
+        check_covariance(&base(), "covariance", 4, cov);
+    }
+
+    #[test]
+    fn out_of_range() {
+        check_out_of_range::<BallState>(
+            &base(),
+            &[
+                ("model.wall_restitution", 1.2, |m, v| {
+                    m.model.wall_restitution = v
+                }),
+                ("model.wall_restitution", -0.1, |m, v| {
+                    m.model.wall_restitution = v
+                }),
+                ("model.rolling_decel_mps2", -0.2, |m, v| {
+                    m.model.rolling_decel_mps2 = v
+                }),
+                ("model.rolling_decel_mps2", 150.0, |m, v| {
+                    m.model.rolling_decel_mps2 = v
+                }),
+                ("horizon_s", -2.0, |m, v| m.prediction.horizon_s = v),
+            ],
+        );
+    }
+
+    #[test]
+    fn position_outside_pitch() {
+        check_position(&base(), |m, p| m.position_m = p);
+        check_position(&base(), |m, p| m.prediction.samples[1].position_m = p);
+    }
+
+    #[test]
+    fn stamp() {
+        check_stamp(&base(), |m, s| m.stamp = s);
+        check_stamp(&base(), |m, s| m.prediction.stamp = s);
+    }
+}
+
+mod pitch {
+    use super::*;
+
+    #[test]
+    fn version() {
+        check_version(&Pitch::default(), |m, v| m.version = v);
+    }
+
+    #[test]
+    fn non_finite() {
+        check_non_finite::<Pitch>(
+            &Pitch::default(),
+            &[
+                ("pitch", |m, v| m.length_m = v),
+                ("pitch", |m, v| m.width_m = v),
+                ("pitch", |m, v| m.wall_restitution = v),
+                ("pitch", |m, v| m.ball_radius_m = v),
+            ],
+        );
+    }
+
+    #[test]
+    fn out_of_range() {
+        check_out_of_range::<Pitch>(
+            &Pitch::default(),
+            &[
+                ("length_m", 0.05, |m, v| m.length_m = v),
+                ("length_m", 2000.0, |m, v| m.length_m = v),
+                ("width_m", -1.0, |m, v| m.width_m = v),
+                ("wall_restitution", 1.1, |m, v| m.wall_restitution = v),
+                ("ball_radius_m", 0.0001, |m, v| m.ball_radius_m = v),
+                ("ball_radius_m", 0.6, |m, v| m.ball_radius_m = v),
+            ],
+        );
+        // A ball wider than the pitch: the diameter is what is out of range.
+        let tiny = Pitch {
+            length_m: 0.3,
+            width_m: 0.15,
+            ball_radius_m: 0.1,
+            ..Pitch::default()
+        };
+        assert_eq!(
+            tiny.validate(&ctx()),
+            Err(ValidationError::OutOfRange {
+                field: "ball_radius_m",
+                value: 0.2
+            })
+        );
+    }
+
+    #[test]
+    fn walls_may_be_missing() {
+        let open = Pitch {
+            walls: Vec::new(),
+            ..Pitch::default()
+        };
+        assert_accepted(&open, &ctx());
+    }
+}
+
+#[test]
+fn reason_labels_are_distinct_and_stable() {
+    let reasons: Vec<&str> = examples::one_error_of_each_kind()
+        .iter()
+        .map(ValidationError::reason)
+        .collect();
+    let distinct: HashSet<&str> = reasons.iter().copied().collect();
+    assert_eq!(distinct.len(), reasons.len(), "{reasons:?}");
+    assert_eq!(
+        reasons,
+        [
+            "version",
+            "non_finite",
+            "robot_id",
+            "covariance_asymmetric",
+            "covariance_not_pd",
+            "confidence",
+            "outside_pitch",
+            "stamp",
+            "out_of_range",
+        ]
+    );
+    for e in examples::one_error_of_each_kind() {
+        assert!(!e.to_string().is_empty());
+    }
+}
