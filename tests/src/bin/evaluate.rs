@@ -1,1 +1,87 @@
-fn main() {}
+//! `evaluate`: every scenario over many seeds, each method on the same observations,
+//! scored against the simulator's ground truth. Writes JSON, prints a markdown table and
+//! the targets, and draws PNG plots.
+
+use anyhow::Context;
+use clap::Parser;
+use std::path::PathBuf;
+use system_tests::{eval, plots, report};
+
+#[derive(Debug, Parser)]
+#[command(about = "Evaluate the fusion core against the seed's method and an oracle")]
+struct Args {
+    /// Seeds per scenario (0..N).
+    #[arg(long, default_value_t = 20)]
+    seeds: u64,
+    /// Write the full report as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write the markdown table here too.
+    #[arg(long)]
+    markdown: Option<PathBuf>,
+    /// Directory for the PNG plots.
+    #[arg(long, default_value = "out/plots")]
+    plots: PathBuf,
+    /// Only these scenarios (comma-separated); default all.
+    #[arg(long, value_delimiter = ',')]
+    scenarios: Vec<String>,
+    /// Worker threads.
+    #[arg(long, default_value_t = 2)]
+    jobs: usize,
+}
+
+fn main() {
+    if let Err(e) = run(Args::parse()) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    let all = sim::scenario_names();
+    let names: Vec<&str> = if args.scenarios.is_empty() {
+        all.clone()
+    } else {
+        let mut v = Vec::new();
+        for s in &args.scenarios {
+            let n =
+                all.iter().copied().find(|n| n == s).with_context(|| {
+                    format!("unknown scenario {s:?}; known: {}", all.join(", "))
+                })?;
+            v.push(n);
+        }
+        v
+    };
+    let cfg = sim::SimConfig::default();
+    let results = eval::evaluate(&names, args.seeds, &cfg, args.jobs)?;
+    let rep = eval::report(&names, args.seeds, &results);
+    let table = report::markdown_table(&rep.scenarios);
+    println!("{table}");
+    let met = rep.targets.iter().filter(|t| t.met).count();
+    println!("Targets met: {met}/{}", rep.targets.len());
+    for t in rep.targets.iter().filter(|t| !t.met) {
+        println!(
+            "  missed: {} — {}: {} (limit {})",
+            t.scenario,
+            t.target,
+            t.value.map_or("n/a".into(), |v| format!("{v:.4}")),
+            t.limit
+        );
+    }
+    if let Some(path) = &args.json {
+        std::fs::write(path, serde_json::to_string_pretty(&rep)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.markdown {
+        std::fs::write(path, &table).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let rally = names
+        .contains(&"team-rally")
+        .then(|| sim::run_scenario("team-rally", 0, &cfg))
+        .transpose()?;
+    for f in plots::write_all(&args.plots, &results, rally.as_ref())? {
+        eprintln!("wrote {f}");
+    }
+    Ok(())
+}

@@ -1,0 +1,161 @@
+//! The evaluation: every scenario over many seeds, every method on the same deliveries.
+
+use crate::methods::{Method, TICK_S, fusion_config, oracle_config, run_baseline, run_fusion};
+use crate::metrics::{Samples, rms, score};
+use crate::report::{Report, Row, check_targets};
+use sim::{SimConfig, SimRun};
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// One scenario and seed, scored for every method.
+#[derive(Debug)]
+pub struct RunResult {
+    pub scenario: String,
+    pub seed: u64,
+    pub methods: Vec<(Method, Samples)>,
+}
+
+pub fn is_team(scenario: &str) -> bool {
+    sim::TEAM_SCENARIOS.contains(&scenario)
+}
+
+/// Scores every method on one simulated run.
+pub fn evaluate_run(run: &SimRun) -> RunResult {
+    let n_ticks = (run.duration_s / TICK_S).floor() as usize;
+    let fusion = score(run, &run_fusion(run, fusion_config(run), |_| true), n_ticks);
+    let oracle = score(run, &run_fusion(run, oracle_config(run), |_| true), n_ticks);
+    let baseline = score(run, &run_baseline(run), n_ticks);
+    let mut methods = vec![(Method::Fusion, fusion), (Method::Oracle, oracle)];
+    if is_team(&run.scenario) {
+        if let Some(best) = best_single_robot(run, n_ticks, methods[0].1.ticks) {
+            methods.push((Method::BestSingleRobot, best));
+        }
+    }
+    methods.push((Method::SeedBaseline, baseline));
+    RunResult {
+        scenario: run.scenario.clone(),
+        seed: run.seed,
+        methods,
+    }
+}
+
+/// The core fed one robot's observations, for the robot that does best on its own: the
+/// lowest position RMSE among robots that keep an estimate most of the time.
+fn best_single_robot(run: &SimRun, n_ticks: usize, fused_ticks: usize) -> Option<Samples> {
+    let singles: Vec<Samples> = run
+        .observer_ids()
+        .into_iter()
+        .map(|id| {
+            score(
+                run,
+                &run_fusion(run, fusion_config(run), |d| d.obs.robot_id == id),
+                n_ticks,
+            )
+        })
+        .collect();
+    let key = |s: &Samples| rms(&s.position_err_m).unwrap_or(f64::INFINITY);
+    let covering = singles
+        .iter()
+        .filter(|s| s.ticks as f64 >= 0.8 * fused_ticks as f64);
+    let best = covering.min_by(|a, b| key(a).total_cmp(&key(b)))?;
+    Some(best.clone())
+}
+
+/// Runs `scenarios` × `seeds` on `jobs` threads, reporting progress on stderr.
+pub fn evaluate(
+    scenarios: &[&str],
+    seeds: u64,
+    cfg: &SimConfig,
+    jobs: usize,
+) -> anyhow::Result<Vec<RunResult>> {
+    let work: Vec<(String, u64)> = scenarios
+        .iter()
+        .flat_map(|s| (0..seeds).map(move |k| (s.to_string(), k)))
+        .collect();
+    let total = work.len();
+    let queue = Mutex::new(work.into_iter());
+    let results = Mutex::new(Vec::with_capacity(total));
+    let errors = Mutex::new(Vec::new());
+    let started = Instant::now();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.max(1) {
+            scope.spawn(|| {
+                loop {
+                    let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+                    let Some((name, seed)) = next else { break };
+                    match sim::run_scenario(&name, seed, cfg) {
+                        Ok(run) => {
+                            let r = evaluate_run(&run);
+                            if let Ok(mut res) = results.lock() {
+                                res.push(r);
+                                eprint!(
+                                    "\r[{:>4}/{total}] {:<24} seed {:>3}  {:>6.1} s",
+                                    res.len(),
+                                    name,
+                                    seed,
+                                    started.elapsed().as_secs_f64()
+                                );
+                            }
+                        }
+                        Err(e) => {
+                            if let Ok(mut errs) = errors.lock() {
+                                errs.push(format!("{name} seed {seed}: {e}"));
+                            }
+                        }
+                    }
+                }
+            });
+        }
+    });
+    eprintln!();
+    let errors = errors.into_inner().unwrap_or_default();
+    if let Some(e) = errors.first() {
+        anyhow::bail!("simulation failed: {e}");
+    }
+    let mut results = results.into_inner().unwrap_or_default();
+    results.sort_by(|a, b| (a.scenario.as_str(), a.seed).cmp(&(b.scenario.as_str(), b.seed)));
+    Ok(results)
+}
+
+/// Pools the samples of every seed per (scenario, method).
+pub fn pool(results: &[RunResult]) -> BTreeMap<(String, Method), (usize, Samples)> {
+    let mut pooled: BTreeMap<(String, Method), (usize, Samples)> = BTreeMap::new();
+    for r in results {
+        for (m, s) in &r.methods {
+            let e = pooled
+                .entry((r.scenario.clone(), *m))
+                .or_insert_with(|| (0, Samples::new()));
+            e.0 += 1;
+            e.1.merge(s.clone());
+        }
+    }
+    pooled
+}
+
+/// The report rows in scenario order, methods in a fixed order, and the targets.
+pub fn report(scenarios: &[&str], seeds: u64, results: &[RunResult]) -> Report {
+    let pooled = pool(results);
+    let order = [
+        Method::Fusion,
+        Method::Oracle,
+        Method::BestSingleRobot,
+        Method::SeedBaseline,
+    ];
+    let mut rows = Vec::new();
+    for s in scenarios {
+        for m in order {
+            if let Some((n, samples)) = pooled.get(&(s.to_string(), m)) {
+                rows.push(Row::new(s, m.name(), *n, samples));
+            }
+        }
+    }
+    let seed_names: Vec<&str> = scenarios.iter().copied().filter(|s| !is_team(s)).collect();
+    let team_names: Vec<&str> = scenarios.iter().copied().filter(|s| is_team(s)).collect();
+    let targets = check_targets(&rows, &seed_names, &team_names);
+    Report {
+        seeds: seeds as usize,
+        scenarios: rows,
+        targets,
+    }
+}
