@@ -83,31 +83,27 @@ pub fn run_fusion(
     drive(
         run,
         keep,
-        |d| {
-            fusion.ingest(&d.obs);
+        &mut fusion,
+        |f, d| {
+            f.ingest(&d.obs);
         },
-        |t_s| {
-            let f = fusion.filter_at(run.stamp_of(t_s))?;
-            let model = f.model(&base_model);
-            Some(model_record(
-                t_s,
-                f.position(),
-                f.velocity(),
-                &model,
-                &bounds,
-            ))
+        |f, t_s| {
+            let filter = f.filter_at(run.stamp_of(t_s))?;
+            let model = filter.model(&base_model);
+            Some(model_record(t_s, filter.position(), filter.velocity(), &model, &bounds))
         },
     )
 }
 
 /// Runs the seed's method over all deliveries.
 pub fn run_baseline(run: &SimRun) -> Vec<TickRecord> {
-    let mut b = SeedBaseline::default();
+    let mut baseline = SeedBaseline::default();
     drive(
         run,
         |_| true,
-        |d| b.ingest(d.arrival, &d.obs),
-        |t_s| {
+        &mut baseline,
+        |b, d| b.ingest(d.arrival, &d.obs),
+        |b, t_s| {
             let (p, v) = b.query(run.stamp_of(t_s))?;
             Some(TickRecord {
                 t_s,
@@ -151,11 +147,12 @@ fn model_record(
 }
 
 /// Feeds deliveries in arrival order and queries at every tick.
-fn drive(
+fn drive<S>(
     run: &SimRun,
     keep: impl Fn(&Delivery) -> bool,
-    mut ingest: impl FnMut(&Delivery),
-    mut query: impl FnMut(f64) -> Option<TickRecord>,
+    state: &mut S,
+    ingest: impl Fn(&mut S, &Delivery),
+    query: impl Fn(&mut S, f64) -> Option<TickRecord>,
 ) -> Vec<TickRecord> {
     let mut out = Vec::new();
     let mut next = 0;
@@ -165,11 +162,11 @@ fn drive(
         let at = run.stamp_of(t_s);
         while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {
             if keep(d) {
-                ingest(d);
+                ingest(state, d);
             }
             next += 1;
         }
-        if let Some(r) = query(t_s) {
+        if let Some(r) = query(state, t_s) {
             out.push(r);
         }
     }

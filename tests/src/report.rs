@@ -252,3 +252,21 @@ pub fn check_targets(
     }
     out
 }
+
+pub const SECTION_BEGIN: &str = "<!-- evaluate:begin -->";
+pub const SECTION_END: &str = "<!-- evaluate:end -->";
+
+/// Replaces the text between the section markers of a markdown file (appending the section
+/// when the markers are missing), leaving the hand-written discussion around it alone.
+pub fn rewrite_section(path: &std::path::Path, section: &str) -> anyhow::Result<()> {
+    let old = std::fs::read_to_string(path).unwrap_or_default();
+    let block = format!("{SECTION_BEGIN}\n{section}{SECTION_END}");
+    let new = match (old.find(SECTION_BEGIN), old.find(SECTION_END)) {
+        (Some(a), Some(b)) if b > a => {
+            format!("{}{block}{}", &old[..a], &old[b + SECTION_END.len()..])
+        }
+        _ => format!("{old}\n{block}\n"),
+    };
+    std::fs::write(path, new)?;
+    Ok(())
+}

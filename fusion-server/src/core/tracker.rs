@@ -116,7 +116,16 @@ pub struct RobotTrust {
     pub covariance_scale: f64,
     /// Share of its observations that did not fit the main track while others did.
     pub outlier_rate: f64,
+    /// Observations that informed `outlier_rate`.
+    pub outlier_samples: u32,
     pub observations: u64,
+}
+
+impl RobotTrust {
+    /// Known to report what the others see: may alone promote a hypothesis.
+    fn credible(&self, max_outlier_rate: f64) -> bool {
+        self.outlier_samples >= MIN_OUTLIER_SAMPLES && self.outlier_rate <= max_outlier_rate
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -124,6 +133,7 @@ pub struct Track {
     pub id: u64,
     pub filter: BallFilter,
     pub last_hit_s: f64,
+    pub born_s: f64,
     /// Recent supporting observations: (time, robot index).
     hits: VecDeque<(f64, usize)>,
     quiet_until_s: f64,
@@ -132,10 +142,15 @@ pub struct Track {
 
 impl Track {
     fn support(&self, now_s: f64, window_s: f64) -> (usize, usize, Vec<usize>) {
+        self.support_since(now_s - window_s)
+    }
+
+    /// Supporting observations at or after `since_s`: count, distinct robots, the robots.
+    fn support_since(&self, since_s: f64) -> (usize, usize, Vec<usize>) {
         let mut robots: Vec<usize> = Vec::new();
         let mut n = 0;
         for (t, r) in self.hits.iter().rev() {
-            if *t < now_s - window_s {
+            if *t < since_s {
                 break;
             }
             n += 1;
@@ -144,6 +159,11 @@ impl Track {
             }
         }
         (n, robots.len(), robots)
+    }
+
+    /// Number of supporting observations within `window_s` of `now_s`.
+    pub fn recent_hits(&self, now_s: f64, window_s: f64) -> usize {
+        self.support(now_s, window_s).0
     }
 
     /// Robots that supported this track within `window_s`.
@@ -170,6 +190,17 @@ pub struct Tracker {
 
 const HIT_HISTORY_S: f64 = 1.5;
 const OUTLIER_ALPHA: f64 = 0.03;
+/// A track updated this recently is being watched.
+const WATCHED_S: f64 = 0.5;
+/// Robots that reported anything this recently count as on the pitch (a robot that sees
+/// no ball sends nothing, so this is long).
+const ACTIVE_ROBOT_S: f64 = 5.0;
+/// A robot's outlier rate means something after this many observations.
+const MIN_OUTLIER_SAMPLES: u32 = 20;
+/// Another robot must have confirmed the main track this recently for an outlier to count.
+const OUTLIER_CONFIRM_S: f64 = 0.15;
+/// Mahalanobis distance² beyond which a report is another object, not noise.
+const OUTLIER_D2: f64 = 50.0;
 
 impl Tracker {
     pub fn new(cfg: Arc<TrackerConfig>, bounds: Bounds) -> Self {
@@ -221,8 +252,12 @@ impl Tracker {
         let mut noise = cfg.noise;
         let s = speed(track.filter.velocity());
         noise.accel_m2ps3 += cfg.accel_speed_gain * s * s;
-        if self.near_robot(track.filter.position(), track.filter.t_s)
-            || track.filter.t_s < track.boost_until_s
+        // Near a robot the ball may be kicked at any moment; but only while it is being
+        // watched: an unseen ball's uncertainty must not balloon until anything fits.
+        let watched = track.filter.t_s - track.last_hit_s < WATCHED_S;
+        if watched
+            && (self.near_robot(track.filter.position(), track.filter.t_s)
+                || track.filter.t_s < track.boost_until_s)
         {
             noise.accel_m2ps3 = noise.accel_m2ps3.max(cfg.near_robot_accel_m2ps3);
             noise.rest_vel_m2ps3 = noise.rest_vel_m2ps3.max(cfg.near_robot_accel_m2ps3);
@@ -247,6 +282,7 @@ impl Tracker {
             last_obs_s: o.t_s,
             covariance_scale: 1.0,
             outlier_rate: 0.0,
+            outlier_samples: 0,
             observations: 0,
         });
         self.robots.len() - 1
@@ -276,7 +312,7 @@ impl Tracker {
             .map(|(i, _)| i);
 
         self.learn_trust(ri, o);
-        self.learn_outlier_rate(ri, o.t_s, best.is_some() && best == self.main);
+        self.learn_outlier_rate(ri, o, best.is_some() && best == self.main);
 
         match best {
             Some(i) => self.update_track(i, ri, o, &r_eff),
@@ -373,9 +409,11 @@ impl Tracker {
             id: self.next_id,
             filter,
             last_hit_s: o.t_s,
+            born_s: o.t_s,
             hits: VecDeque::from([(o.t_s, ri)]),
             quiet_until_s: o.t_s + cfg.learn_quiet_s,
-            boost_until_s: o.t_s,
+            // A new hypothesis is often a ball just kicked and still sliding.
+            boost_until_s: o.t_s + cfg.kick_boost_s,
         };
         self.next_id += 1;
         if self.tracks.len() >= cfg.max_tracks {
@@ -397,36 +435,39 @@ impl Tracker {
         }
     }
 
-    /// A hypothesis takes over when it is better supported than the main track.
+    /// A hypothesis takes over when, since it was born, it has gathered clearly more support
+    /// than the main track: from several robots, or from one credible robot while the main
+    /// track got nothing at all (a kick seen by one robot first). A robot that keeps seeing
+    /// things nobody else sees is not credible, so its phantom never takes over.
     fn promote(&mut self, t_s: f64) {
         let cfg = self.cfg.clone();
         let window = cfg.promote_window_s;
         let active_robots = self
             .robots
             .iter()
-            .filter(|r| t_s - r.last_obs_s < 1.0)
+            .filter(|r| t_s - r.last_obs_s < ACTIVE_ROBOT_S)
             .count();
-        let (main_hits, main_silent) = match self.main() {
-            Some(m) => (
-                m.support(t_s, window).0,
-                t_s - m.last_hit_s > cfg.main_silence_s,
-            ),
-            None => (0, true),
-        };
+        let main_silent = self
+            .main()
+            .is_none_or(|m| t_s - m.last_hit_s > cfg.main_silence_s);
         let mut best: Option<(usize, usize)> = None;
         for (i, tr) in self.tracks.iter().enumerate() {
             if Some(i) == self.main {
                 continue;
             }
-            let (hits, n_robots, robots) = tr.support(t_s, window);
-            if hits < cfg.promote_min_hits || hits <= 2 * main_hits {
+            let since = tr.born_s.max(t_s - window);
+            let (hits, n_robots, robots) = tr.support_since(since);
+            let main_hits = self.main().map_or(0, |m| m.support_since(since).0);
+            if hits < cfg.promote_min_hits || 2 * main_hits >= hits {
                 continue;
             }
             let diverse = n_robots >= active_robots.clamp(1, 2);
             let credible = robots
                 .iter()
-                .all(|r| self.robots[*r].outlier_rate <= cfg.outlier_rate_max);
-            if (diverse || (main_silent && credible)) && best.is_none_or(|(_, h)| hits > h) {
+                .all(|r| self.robots[*r].credible(cfg.outlier_rate_max));
+            let unopposed = main_hits == 0 || main_silent;
+            let lone_ok = unopposed && credible && hits > cfg.promote_min_hits;
+            if (diverse || lone_ok) && best.is_none_or(|(_, h)| hits > h) {
                 best = Some((i, hits));
             }
         }
@@ -435,10 +476,7 @@ impl Tracker {
             // The floor and the walls did not change: keep what was learned about them.
             let keep = [
                 (old.filter.x[DECEL], old.filter.p[(DECEL, DECEL)]),
-                (
-                    old.filter.x[RESTITUTION],
-                    old.filter.p[(RESTITUTION, RESTITUTION)],
-                ),
+                (old.filter.x[RESTITUTION], old.filter.p[(RESTITUTION, RESTITUTION)]),
             ];
             let f = &mut self.tracks[i].filter;
             for (k, (v, var)) in [(DECEL, keep[0]), (RESTITUTION, keep[1])] {
@@ -517,19 +555,29 @@ impl Tracker {
         r.covariance_scale = ((1.0 - alpha) * r.covariance_scale + alpha * sample).clamp(lo, hi);
     }
 
-    /// How often a robot reports something off the main track while other robots confirm it.
-    fn learn_outlier_rate(&mut self, ri: usize, t_s: f64, on_main: bool) {
+    /// How often a robot reports something clearly off the main track (another object)
+    /// while other robots confirm the main track at that very moment.
+    fn learn_outlier_rate(&mut self, ri: usize, o: &ObsInput, on_main: bool) {
         let Some(m) = self.main() else { return };
+        let t_s = o.t_s;
         let confirmed_by_others = m
             .hits
             .iter()
             .rev()
-            .take_while(|(t, _)| *t > t_s - 0.3)
+            .take_while(|(t, _)| *t > t_s - OUTLIER_CONFIRM_S)
             .any(|(_, r)| *r != ri);
-        if confirmed_by_others {
-            let r = &mut self.robots[ri];
-            let x = if on_main { 0.0 } else { 1.0 };
-            r.outlier_rate = (1.0 - OUTLIER_ALPHA) * r.outlier_rate + OUTLIER_ALPHA * x;
+        if !confirmed_by_others {
+            return;
         }
+        let x = if on_main {
+            0.0
+        } else if m.filter.innovation(o.position_m, &o.covariance_m2).d2 > OUTLIER_D2 {
+            1.0
+        } else {
+            return; // Near the main track but not on it: ambiguous, not evidence.
+        };
+        let r = &mut self.robots[ri];
+        r.outlier_rate = (1.0 - OUTLIER_ALPHA) * r.outlier_rate + OUTLIER_ALPHA * x;
+        r.outlier_samples = r.outlier_samples.saturating_add(1);
     }
 }

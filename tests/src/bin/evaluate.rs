@@ -19,6 +19,10 @@ struct Args {
     /// Write the markdown table here too.
     #[arg(long)]
     markdown: Option<PathBuf>,
+    /// Rewrite the generated section of this markdown file (between
+    /// `<!-- evaluate:begin -->` and `<!-- evaluate:end -->`) with the table and targets.
+    #[arg(long)]
+    doc: Option<PathBuf>,
     /// Directory for the PNG plots.
     #[arg(long, default_value = "out/plots")]
     plots: PathBuf,
@@ -53,6 +57,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         v
     };
     let cfg = sim::SimConfig::default();
+    let started = std::time::Instant::now();
     let results = eval::evaluate(&names, args.seeds, &cfg, args.jobs)?;
     let rep = eval::report(&names, args.seeds, &results);
     let table = report::markdown_table(&rep.scenarios);
@@ -73,6 +78,11 @@ fn run(args: Args) -> anyhow::Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
+    if let Some(path) = &args.doc {
+        let section = doc_section(&args, &names, &rep, &table, started.elapsed().as_secs_f64());
+        report::rewrite_section(path, &section)?;
+        eprintln!("updated {}", path.display());
+    }
     if let Some(path) = &args.markdown {
         std::fs::write(path, &table).with_context(|| format!("writing {}", path.display()))?;
     }
@@ -84,4 +94,46 @@ fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("wrote {f}");
     }
     Ok(())
+}
+
+/// The generated part of docs/accuracy.md: how it was produced, the table, the targets.
+fn doc_section(
+    args: &Args,
+    names: &[&str],
+    rep: &report::Report,
+    table: &str,
+    secs: f64,
+) -> String {
+    let mut cmd = format!(
+        "cargo run --release -p system-tests --bin evaluate -- --seeds {}",
+        args.seeds
+    );
+    if let Some(doc) = &args.doc {
+        cmd.push_str(&format!(" --doc {}", doc.display()));
+    }
+    cmd.push_str(&format!(" --plots {}", args.plots.display()));
+    if !args.scenarios.is_empty() {
+        cmd.push_str(&format!(" --scenarios {}", names.join(",")));
+    }
+    let mut s = format!(
+        "Produced by `{cmd}` ({} scenarios × {} seeds, {secs:.0} s on {} worker threads).\n\n{table}\n",
+        names.len(),
+        args.seeds,
+        args.jobs
+    );
+    let met = rep.targets.iter().filter(|t| t.met).count();
+    s.push_str(&format!(
+        "Targets met: {met} of {}.\n\n| scenario | target | measured | met |\n|---|---|---|---|\n",
+        rep.targets.len()
+    ));
+    for t in &rep.targets {
+        s.push_str(&format!(
+            "| {} | {} | {} | {} |\n",
+            t.scenario,
+            t.target,
+            t.value.map_or("n/a".into(), |v| format!("{v:.3}")),
+            if t.met { "yes" } else { "**no**" }
+        ));
+    }
+    s
 }
