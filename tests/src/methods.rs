@@ -90,7 +90,13 @@ pub fn run_fusion(
         |f, t_s| {
             let filter = f.filter_at(run.stamp_of(t_s))?;
             let model = filter.model(&base_model);
-            Some(model_record(t_s, filter.position(), filter.velocity(), &model, &bounds))
+            Some(model_record(
+                t_s,
+                filter.position(),
+                filter.velocity(),
+                &model,
+                &bounds,
+            ))
         },
     )
 }

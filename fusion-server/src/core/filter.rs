@@ -29,6 +29,9 @@ pub struct ProcessNoise {
     pub rest_pos_m2ps: f64,
     /// White-acceleration spectral density while at rest (m²/s³): a kick may come.
     pub rest_vel_m2ps3: f64,
+    /// Time constant of the velocity's mean reversion while at rest; infinite for none
+    /// (a fresh or just-kicked track whose velocity is still unknown).
+    pub rest_velocity_tau_s: f64,
     /// Random walk of the deceleration and restitution states (per second).
     pub decel_per_s: f64,
     pub restitution_per_s: f64,
@@ -217,27 +220,52 @@ fn jacobian_and_noise(flight: &Flight, model: &MotionModel, noise: &ProcessNoise
 
 fn segment(dt_s: f64, moving_s: f64, dir: [f64; 2], noise: &ProcessNoise) -> (Cov, Cov) {
     let mut a = Cov::identity();
-    a[(0, 2)] = dt_s;
-    a[(1, 3)] = dt_s;
+    let mut q = Cov::zeros();
+    if moving_s > 0.0 || !noise.rest_velocity_tau_s.is_finite() {
+        // Rolling: constant-velocity Jacobian and white-acceleration noise, which compose
+        // exactly, plus the sensitivity to the deceleration.
+        let qa = if moving_s > 0.0 {
+            noise.accel_m2ps3
+        } else {
+            noise.rest_vel_m2ps3
+        };
+        let q_pos = if moving_s > 0.0 {
+            0.0
+        } else {
+            noise.rest_pos_m2ps
+        };
+        for k in 0..2 {
+            a[(k, 2 + k)] = dt_s;
+            q[(k, k)] = qa * dt_s.powi(3) / 3.0 + q_pos * dt_s;
+            q[(k, 2 + k)] = qa * dt_s.powi(2) / 2.0;
+            q[(2 + k, k)] = q[(k, 2 + k)];
+            q[(2 + k, 2 + k)] = qa * dt_s;
+        }
+    } else {
+        // At rest: the velocity is a mean-reverting (Ornstein–Uhlenbeck) process. A kick
+        // may come, so the velocity keeps some uncertainty and stays observable, but an
+        // unseen ball at rest does not drift off by an ever-growing velocity. Exact
+        // transition and noise integral, so this composes exactly too.
+        let tau = noise.rest_velocity_tau_s;
+        let g = (-dt_s / tau).exp();
+        let g2 = (-2.0 * dt_s / tau).exp();
+        let qa = noise.rest_vel_m2ps3;
+        let q_vv = qa * tau / 2.0 * (1.0 - g2);
+        let q_pv = qa * tau * (tau * (1.0 - g) - tau / 2.0 * (1.0 - g2));
+        let q_pp = qa * tau * tau * (dt_s - 2.0 * tau * (1.0 - g) + tau / 2.0 * (1.0 - g2));
+        for k in 0..2 {
+            a[(k, 2 + k)] = tau * (1.0 - g);
+            a[(2 + k, 2 + k)] = g;
+            q[(k, k)] = q_pp + noise.rest_pos_m2ps * dt_s;
+            q[(k, 2 + k)] = q_pv;
+            q[(2 + k, k)] = q_pv;
+            q[(2 + k, 2 + k)] = q_vv;
+        }
+    }
     let half_m2 = 0.5 * moving_s * moving_s;
     for k in 0..2 {
         a[(k, DECEL)] = -half_m2 * dir[k];
         a[(2 + k, DECEL)] = -moving_s * dir[k];
-    }
-    // White-acceleration noise in constant-velocity form composes exactly with the
-    // constant-velocity Jacobian; a ball at rest gets a weaker one (a kick may come) plus a
-    // small position random walk, which the Jacobian leaves untouched.
-    let (qa, q_pos) = if moving_s > 0.0 {
-        (noise.accel_m2ps3, 0.0)
-    } else {
-        (noise.rest_vel_m2ps3, noise.rest_pos_m2ps)
-    };
-    let mut q = Cov::zeros();
-    for k in 0..2 {
-        q[(k, k)] = qa * dt_s.powi(3) / 3.0 + q_pos * dt_s;
-        q[(k, 2 + k)] = qa * dt_s.powi(2) / 2.0;
-        q[(2 + k, k)] = q[(k, 2 + k)];
-        q[(2 + k, 2 + k)] = qa * dt_s;
     }
     // The deceleration's random walk, integrated exactly through the segment's linear
     // dynamics (ṗ = v, v̇ = −a·u, ȧ = w), so that splitting a segment changes nothing.
@@ -271,6 +299,7 @@ mod tests {
             accel_m2ps3: 0.05,
             rest_pos_m2ps: 1e-4,
             rest_vel_m2ps3: 0.01,
+            rest_velocity_tau_s: 0.3,
             decel_per_s: 1e-4,
             restitution_per_s: 1e-4,
             bounce_normal_frac: 0.15,

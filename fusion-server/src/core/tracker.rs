@@ -30,6 +30,10 @@ pub struct ObsInput {
 pub struct TrackerConfig {
     /// χ² gate on the innovation (2 dof; 11.83 keeps 99.73 % of consistent observations).
     pub gate_chi2: f64,
+    /// Observations farther than this from a track's prediction never update it, however
+    /// uncertain it has grown: an unseen ball is found again by a new hypothesis, not by
+    /// stretching a stale linearisation.
+    pub max_innovation_m: f64,
     /// Velocity uncertainty of a new hypothesis.
     pub spawn_velocity_sigma_mps: f64,
     pub max_tracks: usize,
@@ -72,6 +76,7 @@ impl Default for TrackerConfig {
     fn default() -> Self {
         TrackerConfig {
             gate_chi2: 11.83,
+            max_innovation_m: 0.6,
             spawn_velocity_sigma_mps: 1.5,
             max_tracks: 6,
             candidate_ttl_s: 0.6,
@@ -89,15 +94,16 @@ impl Default for TrackerConfig {
             decel_sigma_mps2: 0.1,
             restitution_sigma: 0.15,
             noise: ProcessNoise {
-                accel_m2ps3: 0.01,
+                accel_m2ps3: 0.002,
                 rest_pos_m2ps: 2e-5,
                 rest_vel_m2ps3: 0.02,
+                rest_velocity_tau_s: 0.3,
                 decel_per_s: 1e-5,
                 restitution_per_s: 1e-5,
                 bounce_normal_frac: 0.15,
                 bounce_tangential_frac: 0.06,
             },
-            accel_speed_gain: 0.05,
+            accel_speed_gain: 0.01,
             near_robot_accel_m2ps3: 2.0,
             trust_alpha: 0.03,
             trust_range: (0.2, 25.0),
@@ -122,9 +128,11 @@ pub struct RobotTrust {
 }
 
 impl RobotTrust {
-    /// Known to report what the others see: may alone promote a hypothesis.
+    /// Not known to report what the others do not see: may alone promote a hypothesis.
+    /// A robot that has rarely been checked against the others (it is often the only one
+    /// to see the ball) gets the benefit of the doubt.
     fn credible(&self, max_outlier_rate: f64) -> bool {
-        self.outlier_samples >= MIN_OUTLIER_SAMPLES && self.outlier_rate <= max_outlier_rate
+        self.outlier_samples < MIN_OUTLIER_SAMPLES || self.outlier_rate <= max_outlier_rate
     }
 }
 
@@ -262,6 +270,10 @@ impl Tracker {
             noise.accel_m2ps3 = noise.accel_m2ps3.max(cfg.near_robot_accel_m2ps3);
             noise.rest_vel_m2ps3 = noise.rest_vel_m2ps3.max(cfg.near_robot_accel_m2ps3);
         }
+        if watched && track.filter.t_s < track.boost_until_s {
+            // Just born or just kicked: the velocity is unknown, not "probably zero".
+            noise.rest_velocity_tau_s = f64::INFINITY;
+        }
         noise
     }
 
@@ -301,14 +313,19 @@ impl Tracker {
         self.predict_all(o.t_s);
 
         let r_eff = o.covariance_m2 * self.robots[ri].covariance_scale;
-        let gate = self.cfg.gate_chi2;
+        let (gate, max_jump) = (self.cfg.gate_chi2, self.cfg.max_innovation_m);
         let best = self
             .tracks
             .iter()
             .enumerate()
             .map(|(i, tr)| (i, tr.filter.innovation(o.position_m, &r_eff)))
-            .filter(|(_, inn)| inn.d2 < gate)
-            .min_by(|a, b| a.1.d2.total_cmp(&b.1.d2))
+            .filter(|(_, inn)| inn.d2 < gate && inn.y.norm() < max_jump)
+            // Most likely track: d² + ln|S| (the negative log-likelihood up to constants),
+            // so a vague young hypothesis does not steal observations from a sharp one.
+            .min_by(|a, b| {
+                let cost = |inn: &Innovation| inn.d2 + inn.s.determinant().max(1e-300).ln();
+                cost(&a.1).total_cmp(&cost(&b.1))
+            })
             .map(|(i, _)| i);
 
         self.learn_trust(ri, o);
@@ -476,7 +493,10 @@ impl Tracker {
             // The floor and the walls did not change: keep what was learned about them.
             let keep = [
                 (old.filter.x[DECEL], old.filter.p[(DECEL, DECEL)]),
-                (old.filter.x[RESTITUTION], old.filter.p[(RESTITUTION, RESTITUTION)]),
+                (
+                    old.filter.x[RESTITUTION],
+                    old.filter.p[(RESTITUTION, RESTITUTION)],
+                ),
             ];
             let f = &mut self.tracks[i].filter;
             for (k, (v, var)) in [(DECEL, keep[0]), (RESTITUTION, keep[1])] {

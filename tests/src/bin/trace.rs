@@ -26,7 +26,9 @@ fn main() {
     }
     let mut fusion = Fusion::new(fusion_config(&run));
     let mut next = 0;
-    println!("t_s,true_x,true_y,true_vx,true_vy,est_x,est_y,est_vx,est_vy,err_m,tracks,decel,restitution");
+    println!(
+        "t_s,true_x,true_y,true_vx,true_vy,est_x,est_y,est_vx,est_vy,err_m,tracks,decel,restitution"
+    );
     let n = (run.duration_s / TICK_S) as usize;
     for k in 1..=n {
         let t = k as f64 * TICK_S;
@@ -41,17 +43,24 @@ fn main() {
             for (i, track) in tr.tracks().iter().enumerate() {
                 let f = &track.filter;
                 eprintln!(
-                    "{t:.2} track {} main={} p=({:.2},{:.2}) v=({:.2},{:.2}) hits={} robots={:?} last={:.2}",
+                    "{t:.2} track {} main={} p=({:.2},{:.2}) v=({:.2},{:.2}) hits={} robots={:?} last={:.2} sd=({:.3},{:.3})",
                     track.id,
                     tr.main().is_some_and(|m| m.id == track.id),
-                    f.x[0], f.x[1], f.x[2], f.x[3],
+                    f.x[0],
+                    f.x[1],
+                    f.x[2],
+                    f.x[3],
                     track.recent_hits(tr.t_s, 0.4),
                     track.contributors(tr.t_s, 0.4),
                     track.last_hit_s - 0.0 * i as f64,
+                    f.p[(0, 0)].sqrt(),
+                    f.p[(2, 2)].sqrt(),
                 );
             }
         }
-        let Some(f) = fusion.filter_at(at) else { continue };
+        let Some(f) = fusion.filter_at(at) else {
+            continue;
+        };
         let (p, v) = (f.position(), f.velocity());
         let err = (p[0] - truth.position_m[0]).hypot(p[1] - truth.position_m[1]);
         println!(
@@ -71,6 +80,9 @@ fn main() {
     }
     eprintln!("{:?}", fusion.counters());
     for r in fusion.robots() {
-        eprintln!("{} scale {:.2} outliers {:.3} obs {}", r.robot, r.covariance_scale, r.outlier_rate, r.observations);
+        eprintln!(
+            "{} scale {:.2} outliers {:.3} obs {}",
+            r.robot, r.covariance_scale, r.outlier_rate, r.observations
+        );
     }
 }
