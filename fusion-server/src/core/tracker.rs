@@ -300,6 +300,16 @@ impl Tracker {
         self.robots.len() - 1
     }
 
+    /// A robot's covariance scale relative to the team's median. Relative, because what
+    /// the filter cannot explain (unmodelled ball physics) inflates everyone's residuals
+    /// alike; only the differences between robots say who misreports.
+    fn relative_trust(&self, ri: usize) -> f64 {
+        let mut scales: Vec<f64> = self.robots.iter().map(|r| r.covariance_scale).collect();
+        scales.sort_by(f64::total_cmp);
+        let median = scales.get(scales.len() / 2).copied().unwrap_or(1.0);
+        self.robots[ri].covariance_scale / median.max(1e-6)
+    }
+
     /// Applies one observation at its capture time (callers feed them in time order).
     pub fn apply(&mut self, o: &ObsInput) {
         let ri = self.robot_index(o);
@@ -312,7 +322,7 @@ impl Tracker {
         self.t_s = self.t_s.max(o.t_s);
         self.predict_all(o.t_s);
 
-        let r_eff = o.covariance_m2 * self.robots[ri].covariance_scale;
+        let r_eff = o.covariance_m2 * self.relative_trust(ri);
         let (gate, max_jump) = (self.cfg.gate_chi2, self.cfg.max_innovation_m);
         let best = self
             .tracks
