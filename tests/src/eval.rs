@@ -1,9 +1,10 @@
 //! The evaluation: every scenario over many seeds, every method on the same deliveries.
 
+use crate::methods::TickRecord;
 use crate::methods::{Method, TICK_S, fusion_config, oracle_config, run_baseline, run_fusion};
 use crate::metrics::{Samples, rms, score};
 use crate::report::{Report, Row, check_targets};
-use sim::{SimConfig, SimRun};
+use sim::{Delivery, ObsKind, SimConfig, SimRun};
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -23,14 +24,29 @@ pub fn is_team(scenario: &str) -> bool {
 /// Scores every method on one simulated run.
 pub fn evaluate_run(run: &SimRun) -> RunResult {
     let n_ticks = (run.duration_s / TICK_S).floor() as usize;
-    let fusion = score(run, &run_fusion(run, fusion_config(run), |_| true), n_ticks);
-    let oracle = score(run, &run_fusion(run, oracle_config(run), |_| true), n_ticks);
-    let baseline = score(run, &run_baseline(run), n_ticks);
+    let has_phantom = run.deliveries.iter().any(|d| d.kind == ObsKind::Phantom);
+    let no_phantom = |d: &Delivery| d.kind != ObsKind::Phantom;
+    // Each method is also run without the phantom reports, to measure the phantom's pull.
+    let scored = |with: Vec<TickRecord>, without: Option<Vec<TickRecord>>| {
+        score(run, &with, n_ticks, without.as_deref())
+    };
+    let fusion = scored(
+        run_fusion(run, fusion_config(run), |_| true),
+        has_phantom.then(|| run_fusion(run, fusion_config(run), no_phantom)),
+    );
+    let oracle = scored(
+        run_fusion(run, oracle_config(run), |_| true),
+        has_phantom.then(|| run_fusion(run, oracle_config(run), no_phantom)),
+    );
+    let baseline = scored(
+        run_baseline(run, |_| true),
+        has_phantom.then(|| run_baseline(run, no_phantom)),
+    );
     let mut methods = vec![(Method::Fusion, fusion), (Method::Oracle, oracle)];
-    if is_team(&run.scenario) {
-        if let Some(best) = best_single_robot(run, n_ticks, methods[0].1.ticks) {
-            methods.push((Method::BestSingleRobot, best));
-        }
+    if is_team(&run.scenario)
+        && let Some(best) = best_single_robot(run, n_ticks, methods[0].1.ticks)
+    {
+        methods.push((Method::BestSingleRobot, best));
     }
     methods.push((Method::SeedBaseline, baseline));
     RunResult {
@@ -43,14 +59,23 @@ pub fn evaluate_run(run: &SimRun) -> RunResult {
 /// The core fed one robot's observations, for the robot that does best on its own: the
 /// lowest position RMSE among robots that keep an estimate most of the time.
 fn best_single_robot(run: &SimRun, n_ticks: usize, fused_ticks: usize) -> Option<Samples> {
+    let has_phantom = run.deliveries.iter().any(|d| d.kind == ObsKind::Phantom);
     let singles: Vec<Samples> = run
         .observer_ids()
         .into_iter()
         .map(|id| {
+            let mine = |d: &Delivery| d.obs.robot_id == id;
             score(
                 run,
-                &run_fusion(run, fusion_config(run), |d| d.obs.robot_id == id),
+                &run_fusion(run, fusion_config(run), mine),
                 n_ticks,
+                has_phantom
+                    .then(|| {
+                        run_fusion(run, fusion_config(run), |d| {
+                            mine(d) && d.kind != ObsKind::Phantom
+                        })
+                    })
+                    .as_deref(),
             )
         })
         .collect();

