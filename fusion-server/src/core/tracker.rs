@@ -456,10 +456,9 @@ impl Tracker {
                 self.remove(victim);
             }
         }
+        // Even the first hypothesis becomes the estimate only through `promote`, with the
+        // same support any other needs: the first report may well be a phantom.
         self.tracks.push(track);
-        if self.main.is_none() && self.tracks.len() == 1 {
-            self.main = Some(0);
-        }
     }
 
     /// A hypothesis takes over when, since it was born, it has gathered clearly more support
@@ -486,6 +485,16 @@ impl Tracker {
             let (hits, n_robots, robots) = tr.support_since(since);
             let main_hits = self.main().map_or(0, |m| m.support_since(since).0);
             if hits < cfg.promote_min_hits || 2 * main_hits >= hits {
+                continue;
+            }
+            // Before there is any estimate, one robot alone must show a steady stream of
+            // sightings (a phantom flickers); after that, two robots agreeing suffice.
+            let needed = if self.main.is_none() && n_robots < 2 {
+                2 * cfg.promote_min_hits
+            } else {
+                cfg.promote_min_hits
+            };
+            if hits < needed {
                 continue;
             }
             let diverse = n_robots >= active_robots.clamp(1, 2);
