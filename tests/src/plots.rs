@@ -120,7 +120,7 @@ pub fn trajectory_chart(run: &SimRun) -> Chart {
     let mut next = 0;
     let mut predicted_paths = Vec::new();
     let mut predicted_bounces = Vec::new();
-    for t_b in bounce_times.iter().take(4) {
+    for t_b in bounce_times.iter().take(8) {
         let t_q = t_b - 0.5;
         let at = run.stamp_of(t_q);
         while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {

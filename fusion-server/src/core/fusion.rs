@@ -73,6 +73,8 @@ pub struct FusionCounters {
     pub too_late: u64,
     pub duplicates: u64,
     pub rejected: u64,
+    /// Observations beyond a wall, dropped by the tracker.
+    pub outside_walls: u64,
 }
 
 /// Origin of the core's f64 time axis (2020-01-01T00:00:00Z). A fixed origin, rather than
@@ -122,7 +124,10 @@ impl Fusion {
     }
 
     pub fn counters(&self) -> FusionCounters {
-        self.counters
+        FusionCounters {
+            outside_walls: self.tracker().outside_walls(),
+            ..self.counters
+        }
     }
 
     /// The tracker after every observation received so far.

@@ -94,7 +94,7 @@ impl Default for TrackerConfig {
             decel_sigma_mps2: 0.1,
             restitution_sigma: 0.15,
             noise: ProcessNoise {
-                accel_m2ps3: 0.002,
+                accel_m2ps3: 0.0005,
                 rest_pos_m2ps: 2e-5,
                 rest_vel_m2ps3: 0.02,
                 rest_velocity_tau_s: 0.3,
@@ -103,7 +103,7 @@ impl Default for TrackerConfig {
                 bounce_normal_frac: 0.15,
                 bounce_tangential_frac: 0.06,
             },
-            accel_speed_gain: 0.01,
+            accel_speed_gain: 0.003,
             near_robot_accel_m2ps3: 2.0,
             trust_alpha: 0.03,
             trust_range: (0.2, 25.0),
@@ -192,6 +192,8 @@ pub struct Tracker {
     next_id: u64,
     decel_updates: u32,
     restitution_updates: u32,
+    /// Observations dropped for lying beyond a wall, where no ball can be.
+    outside_walls: u64,
     /// Time of the newest applied observation.
     pub t_s: f64,
 }
@@ -221,6 +223,7 @@ impl Tracker {
             next_id: 1,
             decel_updates: 0,
             restitution_updates: 0,
+            outside_walls: 0,
             t_s: f64::NEG_INFINITY,
         }
     }
@@ -247,6 +250,26 @@ impl Tracker {
 
     pub fn robot_name(&self, index: usize) -> Option<&Arc<str>> {
         self.robots.get(index).map(|r| &r.robot)
+    }
+
+    /// Observations dropped because they lay beyond a wall.
+    pub fn outside_walls(&self) -> u64 {
+        self.outside_walls
+    }
+
+    /// True when `o` lies beyond a walled side by more than its own 3σ (and 5 cm): another
+    /// object seen over the wall, or a robot body's projection, never the ball.
+    fn beyond_wall(&self, o: &ObsInput) -> bool {
+        let b = &self.bounds;
+        let sides = [
+            (b.walls[0], o.position_m[0] - b.x_max, o.covariance_m2[(0, 0)]),
+            (b.walls[1], b.x_min - o.position_m[0], o.covariance_m2[(0, 0)]),
+            (b.walls[2], o.position_m[1] - b.y_max, o.covariance_m2[(1, 1)]),
+            (b.walls[3], b.y_min - o.position_m[1], o.covariance_m2[(1, 1)]),
+        ];
+        sides
+            .iter()
+            .any(|(walled, out_m, var)| *walled && *out_m > (3.0 * var.max(0.0).sqrt()).max(0.05))
     }
 
     /// Observations / bounces that informed the learned deceleration / restitution.
@@ -312,6 +335,10 @@ impl Tracker {
 
     /// Applies one observation at its capture time (callers feed them in time order).
     pub fn apply(&mut self, o: &ObsInput) {
+        if self.beyond_wall(o) {
+            self.outside_walls += 1;
+            return;
+        }
         let ri = self.robot_index(o);
         {
             let r = &mut self.robots[ri];

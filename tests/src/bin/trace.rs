@@ -10,6 +10,9 @@ struct Args {
     scenario: String,
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Also list every delivery (capture time, arrival, robot, kind, position) on stderr.
+    #[arg(long)]
+    deliveries: bool,
 }
 
 fn main() {
@@ -21,6 +24,19 @@ fn main() {
             std::process::exit(1);
         }
     };
+    if args.deliveries {
+        for d in &run.deliveries {
+            eprintln!(
+                "obs t={:.3} arrival={:.3} {} {:?} ({:.2}, {:.2})",
+                run.t_of(d.obs.stamp),
+                run.t_of(d.arrival),
+                d.obs.robot_id,
+                d.kind,
+                d.obs.position_m[0],
+                d.obs.position_m[1]
+            );
+        }
+    }
     for e in &run.events {
         eprintln!("event {e:?}");
     }
@@ -79,6 +95,33 @@ fn main() {
         );
     }
     eprintln!("{:?}", fusion.counters());
+    // How far each robot's believed pose was from its true pose, on average over its reports.
+    for robot in &run.robots {
+        let reports: Vec<_> = run
+            .deliveries
+            .iter()
+            .filter(|d| d.obs.robot_id == robot.id)
+            .collect();
+        if reports.is_empty() {
+            continue;
+        }
+        let n = reports.len() as f64;
+        let mut sum = [0.0; 3];
+        for d in &reports {
+            let truth = robot.pose_at(run.t_of(d.obs.stamp));
+            sum[0] += d.obs.robot_pose.x_m - truth.x_m;
+            sum[1] += d.obs.robot_pose.y_m - truth.y_m;
+            sum[2] += d.obs.robot_pose.theta_rad - truth.theta_rad;
+        }
+        eprintln!(
+            "{} mean pose error: x {:+.3} m, y {:+.3} m, theta {:+.4} rad over {} reports",
+            robot.id,
+            sum[0] / n,
+            sum[1] / n,
+            sum[2] / n,
+            reports.len()
+        );
+    }
     for r in fusion.robots() {
         eprintln!(
             "{} scale {:.2} outliers {:.3} obs {}",
