@@ -146,6 +146,8 @@ pub struct Track {
     hits: VecDeque<(f64, usize)>,
     quiet_until_s: f64,
     boost_until_s: f64,
+    /// A wall bounce was flown through and no observation has informed the restitution since.
+    bounce_unlearned: bool,
 }
 
 impl Track {
@@ -261,15 +263,10 @@ impl Tracker {
     /// object seen over the wall, or a robot body's projection, never the ball.
     fn beyond_wall(&self, o: &ObsInput) -> bool {
         let b = &self.bounds;
-        let sides = [
-            (b.walls[0], o.position_m[0] - b.x_max, o.covariance_m2[(0, 0)]),
-            (b.walls[1], b.x_min - o.position_m[0], o.covariance_m2[(0, 0)]),
-            (b.walls[2], o.position_m[1] - b.y_max, o.covariance_m2[(1, 1)]),
-            (b.walls[3], b.y_min - o.position_m[1], o.covariance_m2[(1, 1)]),
-        ];
-        sides
-            .iter()
-            .any(|(walled, out_m, var)| *walled && *out_m > (3.0 * var.max(0.0).sqrt()).max(0.05))
+        let (x, y) = (o.position_m[0], o.position_m[1]);
+        let sd = |k: usize| o.covariance_m2[(k, k)].max(0.0).sqrt();
+        let out_by = [x - b.x_max, b.x_min - x, y - b.y_max, b.y_min - y];
+        (0..4).any(|i| b.walls[i] && out_by[i] > (3.0 * sd(i / 2)).max(0.05))
     }
 
     /// Observations / bounces that informed the learned deceleration / restitution.
@@ -389,6 +386,7 @@ impl Tracker {
             {
                 // The ball slides for a moment after a bounce.
                 track.quiet_until_s = track.quiet_until_s.max(t_s + quiet);
+                track.bounce_unlearned = true;
             }
         }
     }
@@ -410,7 +408,6 @@ impl Tracker {
             && track.filter.p[(0, RESTITUTION)].abs() + track.filter.p[(1, RESTITUTION)].abs()
                 > 1e-9;
         let track = &mut self.tracks[i];
-        let before = track.filter.x[RESTITUTION];
         track
             .filter
             .update(o.position_m, r_eff, [learn_decel, learn_restitution]);
@@ -426,14 +423,10 @@ impl Tracker {
         if learn_decel {
             self.decel_updates = self.decel_updates.saturating_add(1);
         }
-        if learn_restitution
-            && track.quiet_until_s > o.t_s
-            && (before - track.filter.x[RESTITUTION]).abs() > 1e-6
-        {
-            // Count a bounce once: the first observation after it that informs the estimate.
-            if track.quiet_until_s - o.t_s > self.cfg.learn_quiet_s - 0.1 {
-                self.restitution_updates = self.restitution_updates.saturating_add(1);
-            }
+        if learn_restitution && track.bounce_unlearned {
+            // Count each bounce once, at the first observation after it that informs it.
+            track.bounce_unlearned = false;
+            self.restitution_updates = self.restitution_updates.saturating_add(1);
         }
     }
 
@@ -466,6 +459,7 @@ impl Tracker {
             born_s: o.t_s,
             hits: VecDeque::from([(o.t_s, ri)]),
             quiet_until_s: o.t_s + cfg.learn_quiet_s,
+            bounce_unlearned: false,
             // A new hypothesis is often a ball just kicked and still sliding.
             boost_until_s: o.t_s + cfg.kick_boost_s,
         };

@@ -95,6 +95,17 @@ fn main() {
         );
     }
     eprintln!("{:?}", fusion.counters());
+    if let Some(st) = fusion.ball_state(run.stamp_of(run.duration_s)) {
+        eprintln!(
+            "learned decel {:.3} m/s² (true rolling {:.3}), restitution {:.3} (true mean {:.3}), from {} observations and {} bounces",
+            st.model.rolling_decel_mps2,
+            run.params.rolling_decel_mps2,
+            st.model.wall_restitution,
+            run.params.restitution_mean,
+            st.model.decel_samples,
+            st.model.restitution_samples
+        );
+    }
     // How far each robot's believed pose was from its true pose, on average over its reports.
     for robot in &run.robots {
         let reports: Vec<_> = run
