@@ -532,4 +532,44 @@ mod tests {
         );
         assert!(st.velocity_mps[0] > 1.4, "{:?}", st.velocity_mps);
     }
+
+    #[test]
+    fn learns_the_rolling_deceleration_online() {
+        let mut f = Fusion::new(FusionConfig::default());
+        let mut rng = Lcg(5);
+        let (v0, a) = (1.2, 0.22);
+        let truth = |t: f64| {
+            let t = t.min(v0 / a);
+            -1.6 + v0 * t - 0.5 * a * t * t
+        };
+        let mut seq = 0;
+        for k in 0..60u64 {
+            let t = k as f64 / 15.0;
+            for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+                let tt = t + 0.02 * r as f64;
+                let p = [truth(tt) + 0.02 * rng.normal(), 0.5 + 0.02 * rng.normal()];
+                f.ingest(&obs(robot, seq, tt, p, 0.02));
+                seq += 1;
+            }
+        }
+        let st = f.ball_state(Stamp(T0).offset_secs(4.0)).expect("state");
+        let learned = st.model.rolling_decel_mps2;
+        assert!(
+            (learned - a).abs() < 0.04,
+            "learned {learned} vs true {a} (started at 0.3)"
+        );
+        assert!(st.model.decel_samples > 50);
+    }
+
+    #[test]
+    fn observations_beyond_a_wall_are_dropped_and_counted() {
+        let mut f = Fusion::new(FusionConfig::default());
+        f.ingest(&obs("a", 0, 1.0, [2.6, 0.0], 0.02));
+        assert_eq!(f.counters().outside_walls, 1);
+        assert!(f.tracker().tracks().is_empty());
+        // Just beyond the wall but within the observation's own noise: kept.
+        f.ingest(&obs("a", 1, 1.1, [1.93, 0.0], 0.02));
+        assert_eq!(f.counters().outside_walls, 1);
+        assert_eq!(f.tracker().tracks().len(), 1);
+    }
 }
