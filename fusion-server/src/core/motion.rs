@@ -64,7 +64,7 @@ impl Default for MotionModel {
         MotionModel {
             decel_mps2: 0.3,
             restitution: 0.5,
-            tangential_retention: 0.92,
+            tangential_retention: 0.85,
             stop_speed_mps: 0.02,
         }
     }
