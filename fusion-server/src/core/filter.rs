@@ -140,23 +140,14 @@ impl BallFilter {
         self.x += k * inn.y;
         // Joseph form: stays symmetric positive semi-definite for any gain, including the
         // Schmidt gain with frozen rows.
-        let mut i_kh = Cov::identity();
-        i_kh.fixed_view_mut::<6, 2>(0, 0).sub_assign(&k);
+        let mut kh = Cov::zeros();
+        kh.fixed_view_mut::<6, 2>(0, 0).copy_from(&k);
+        let i_kh = Cov::identity() - kh;
         self.p = i_kh * self.p * i_kh.transpose() + k * r * k.transpose();
         self.p = 0.5 * (self.p + self.p.transpose());
         self.x[DECEL] = self.x[DECEL].clamp(DECEL_RANGE.0, DECEL_RANGE.1);
         self.x[RESTITUTION] = self.x[RESTITUTION].clamp(RESTITUTION_RANGE.0, RESTITUTION_RANGE.1);
         inn
-    }
-}
-
-trait SubAssign<R> {
-    fn sub_assign(&mut self, rhs: R);
-}
-
-impl<T: std::ops::SubAssign<U>, U> SubAssign<U> for T {
-    fn sub_assign(&mut self, rhs: U) {
-        *self -= rhs;
     }
 }
 

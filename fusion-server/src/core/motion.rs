@@ -193,7 +193,7 @@ pub fn fly(
                 if step > 0.0 {
                     p[axis] = coord;
                 }
-                v[axis] = -model.restitution * v[axis];
+                v[axis] *= -model.restitution;
                 v[1 - axis] *= model.tangential_retention;
                 pieces.push(Piece::Hit(WallHit { position: p, ..hit }));
             }
