@@ -124,8 +124,8 @@ pub fn phantom_spot(run: &SimRun) -> Option<[f64; 2]> {
 }
 
 /// Scores one method's records on one run. `without_phantom` is the same method's records
-/// with the phantom reports withheld: the phantom's pull is the difference between the two,
-/// so that lag or noise is not mistaken for the phantom's doing.
+/// with the phantom reports withheld: the phantom's pull is measured against them (and
+/// against the truth), so that lag or noise is not mistaken for the phantom's doing.
 pub fn score(
     run: &SimRun,
     records: &[TickRecord],
@@ -180,13 +180,15 @@ pub fn score(
         score_stop_and_bounce(run, r, &mut s);
         let reference = without_phantom.and_then(|recs| recs.iter().find(|q| q.t_s == r.t_s));
         if let (Some(spot), Some(q)) = (phantom, reference) {
-            let towards = [spot[0] - q.position[0], spot[1] - q.position[1]];
-            let n = towards[0].hypot(towards[1]);
-            if n > 1e-6 {
-                let d = [r.position[0] - q.position[0], r.position[1] - q.position[1]];
-                s.phantom_pull_m
-                    .push((d[0] * towards[0] + d[1] * towards[1]) / n);
-            }
+            // Displacement towards the phantom compared with where the estimate would be
+            // without it, and compared with the truth: both, so that a kick followed a frame
+            // earlier or later in one run than the other is not mistaken for the phantom.
+            let towards = |from: [f64; 2]| {
+                let d = [spot[0] - from[0], spot[1] - from[1]];
+                let n = d[0].hypot(d[1]).max(1e-9);
+                (r.position[0] - from[0]) * d[0] / n + (r.position[1] - from[1]) * d[1] / n
+            };
+            s.phantom_pull_m.push(towards(q.position).min(towards(p)));
         }
     }
     s

@@ -508,15 +508,24 @@ impl Tracker {
             if hits < cfg.promote_min_hits || 2 * main_hits >= hits {
                 continue;
             }
-            // Before there is any estimate, one robot alone must show a steady stream of
-            // sightings (a phantom flickers); after that, two robots agreeing suffice.
-            let needed = if self.main.is_none() && n_robots < 2 {
-                2 * cfg.promote_min_hits
-            } else {
-                cfg.promote_min_hits
-            };
-            if hits < needed {
-                continue;
+            // Before there is any estimate, a steady stream of sightings is needed: a
+            // phantom flickers, and one stray report from another robot must not vouch
+            // for it. After that, two robots agreeing suffice.
+            if self.main.is_none() {
+                let steady = tr.hits.iter().filter(|(t, _)| *t >= since).fold(
+                    Vec::<(usize, usize)>::new(),
+                    |mut per_robot, (_, r)| {
+                        match per_robot.iter_mut().find(|(id, _)| id == r) {
+                            Some((_, n)) => *n += 1,
+                            None => per_robot.push((*r, 1)),
+                        }
+                        per_robot
+                    },
+                );
+                let steady_robots = steady.iter().filter(|(_, n)| *n >= 2).count();
+                if steady_robots < 2 && hits < 2 * cfg.promote_min_hits {
+                    continue;
+                }
             }
             let diverse = n_robots >= active_robots.clamp(1, 2);
             let credible = robots

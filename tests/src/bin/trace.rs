@@ -13,6 +13,9 @@ struct Args {
     /// Also list every delivery (capture time, arrival, robot, kind, position) on stderr.
     #[arg(long)]
     deliveries: bool,
+    /// Withhold the phantom reports (to see what the phantom changes).
+    #[arg(long)]
+    without_phantom: bool,
 }
 
 fn main() {
@@ -50,7 +53,9 @@ fn main() {
         let t = k as f64 * TICK_S;
         let at = run.stamp_of(t);
         while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {
-            fusion.ingest(&d.obs);
+            if !(args.without_phantom && d.kind == sim::ObsKind::Phantom) {
+                fusion.ingest(&d.obs);
+            }
             next += 1;
         }
         let truth = run.truth_at(t);
