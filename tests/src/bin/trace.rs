@@ -45,6 +45,10 @@ fn main() {
     }
     let mut fusion = Fusion::new(fusion_config(&run));
     let mut next = 0;
+    // Velocity errors while the ball moves, split by whether a kick, bounce or contact
+    // happened within the last 0.6 s.
+    let mut after_event = Vec::new();
+    let mut settled = Vec::new();
     println!(
         "t_s,true_x,true_y,true_vx,true_vy,est_x,est_y,est_vx,est_vy,err_m,tracks,decel,restitution"
     );
@@ -84,6 +88,19 @@ fn main() {
         };
         let (p, v) = (f.position(), f.velocity());
         let err = (p[0] - truth.position_m[0]).hypot(p[1] - truth.position_m[1]);
+        let tv = truth.velocity_mps;
+        if tv[0].hypot(tv[1]) > 0.05 {
+            let verr = (v[0] - tv[0]).hypot(v[1] - tv[1]);
+            let recent = run.events.iter().any(|e| {
+                let dt = t - e.t_s();
+                (0.0..0.6).contains(&dt) && !matches!(e, sim::BallEvent::Stopped { .. })
+            });
+            if recent {
+                after_event.push(verr);
+            } else {
+                settled.push(verr);
+            }
+        }
         println!(
             "{t:.2},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{err:.3},{},{:.3},{:.3}",
             truth.position_m[0],
@@ -100,6 +117,11 @@ fn main() {
         );
     }
     eprintln!("{:?}", fusion.counters());
+    eprintln!(
+        "median velocity error while moving: {} within 0.6 s of a kick, bounce or contact, {} otherwise",
+        median_text(&mut after_event),
+        median_text(&mut settled)
+    );
     if let Some(st) = fusion.ball_state(run.stamp_of(run.duration_s)) {
         eprintln!(
             "learned decel {:.3} m/s² (true rolling {:.3}), restitution {:.3} (true mean {:.3}), from {} observations and {} bounces",
@@ -144,4 +166,12 @@ fn main() {
             r.robot, r.covariance_scale, r.outlier_rate, r.observations
         );
     }
+}
+
+fn median_text(v: &mut [f64]) -> String {
+    if v.is_empty() {
+        return "n/a".to_string();
+    }
+    v.sort_by(f64::total_cmp);
+    format!("{:.3} m/s (n = {})", v[v.len() / 2], v.len())
 }
