@@ -85,7 +85,7 @@ pub fn run_fusion(
         keep,
         &mut fusion,
         |f, d| {
-            f.ingest(&d.obs);
+            f.ingest(&d.obs, d.arrival);
         },
         |f, t_s| {
             let filter = f.filter_at(run.stamp_of(t_s))?;

@@ -124,7 +124,7 @@ pub fn trajectory_chart(run: &SimRun) -> Chart {
         let t_q = t_b - 0.5;
         let at = run.stamp_of(t_q);
         while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {
-            fusion.ingest(&d.obs);
+            fusion.ingest(&d.obs, d.arrival);
             next += 1;
         }
         let Some(f) = fusion.filter_at(at) else {

@@ -19,8 +19,11 @@ use std::sync::Arc;
 #[derive(Debug, Clone, PartialEq)]
 pub struct FusionConfig {
     pub pitch: Pitch,
-    /// How late an observation may arrive (behind the newest capture) and still be used.
+    /// How late an observation may arrive (capture time behind the receiver's clock) and
+    /// still be used.
     pub late_window_s: f64,
+    /// How far a capture stamp may be ahead of the receiver's clock (robots' clock offsets).
+    pub max_future_s: f64,
     pub tracker: TrackerConfig,
     /// Prediction horizon and sample spacing of the path in each `BallState`.
     pub horizon_s: f64,
@@ -39,6 +42,7 @@ impl Default for FusionConfig {
         FusionConfig {
             pitch: Pitch::default(),
             late_window_s: 0.5,
+            max_future_s: 1.0,
             tracker: TrackerConfig::default(),
             horizon_s: 3.0,
             sample_dt_s: 0.1,
@@ -61,8 +65,10 @@ pub enum Ingest {
     TooLate { late_s: f64 },
     /// Already seen (same robot, camera, sequence number and stamp): dropped.
     Duplicate,
-    /// Unusable covariance: dropped.
+    /// Not finite, or a covariance that is not positive definite: dropped.
     Rejected,
+    /// Captured later than the receiver's clock allows (beyond `max_future_s`): dropped.
+    FromTheFuture { ahead_s: f64 },
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -73,8 +79,25 @@ pub struct FusionCounters {
     pub too_late: u64,
     pub duplicates: u64,
     pub rejected: u64,
+    pub future: u64,
     /// Observations beyond a wall, dropped by the tracker.
     pub outside_walls: u64,
+}
+
+/// Finite numbers and a symmetric positive-definite covariance: what the filter can use.
+/// (The server validates at its boundary; the core still never takes poison.)
+fn usable(obs: &Observation, r: &Matrix2<f64>) -> bool {
+    let pose = &obs.robot_pose;
+    let finite = obs.position_m.iter().all(|v| v.is_finite())
+        && [pose.x_m, pose.y_m, pose.theta_rad]
+            .iter()
+            .all(|v| v.is_finite())
+        && r.iter().all(|v| v.is_finite());
+    finite
+        && r[(0, 0)] > 0.0
+        && r[(1, 1)] > 0.0
+        && r.determinant() > 0.0
+        && (r[(0, 1)] - r[(1, 0)]).abs() <= 1e-9 * r[(0, 0)].max(r[(1, 1)])
 }
 
 /// Origin of the core's f64 time axis (2020-01-01T00:00:00Z). A fixed origin, rather than
@@ -97,6 +120,7 @@ pub struct Fusion {
     /// State after every committed observation (older than the late window).
     base: Tracker,
     /// Observations inside the late window, in capture order, and the state after each.
+    /// The window ends at `newest`, the latest receiver clock seen.
     pending: VecDeque<Pending>,
     snapshots: VecDeque<Tracker>,
     newest: Option<Stamp>,
@@ -153,20 +177,26 @@ impl Fusion {
         TIME_ORIGIN.offset_secs(t_s)
     }
 
-    /// Takes one (validated) observation, whenever it arrives.
-    pub fn ingest(&mut self, obs: &Observation) -> Ingest {
+    /// Takes one observation, whenever it arrives. `received` is the receiver's clock at
+    /// arrival: the late window is measured on it, so that one robot with a clock running
+    /// ahead cannot make everybody else's observations look late.
+    pub fn ingest(&mut self, obs: &Observation, received: Stamp) -> Ingest {
         let c = &obs.covariance_m2;
         let r = Matrix2::new(c[0], c[1], c[2], c[3]);
-        if r.try_inverse().is_none() || !r.iter().all(|v| v.is_finite()) {
+        if !usable(obs, &r) {
             self.counters.rejected += 1;
             return Ingest::Rejected;
         }
-        if let Some(newest) = self.newest {
-            let late_s = newest.secs_since(obs.stamp);
-            if late_s > self.cfg.late_window_s {
-                self.counters.too_late += 1;
-                return Ingest::TooLate { late_s };
-            }
+        let ahead_s = obs.stamp.secs_since(received);
+        if ahead_s > self.cfg.max_future_s {
+            self.counters.future += 1;
+            return Ingest::FromTheFuture { ahead_s };
+        }
+        let horizon = self.newest.map_or(received, |n| n.max(received));
+        let late_s = horizon.secs_since(obs.stamp);
+        if late_s > self.cfg.late_window_s {
+            self.counters.too_late += 1;
+            return Ingest::TooLate { late_s };
         }
         let robot = self.name(&obs.robot_id);
         let camera = match obs.camera {
@@ -199,7 +229,7 @@ impl Fusion {
             self.snapshots.push_back(tracker.clone());
         }
         let replayed = self.pending.len() - pos - 1;
-        self.newest = Some(self.newest.map_or(obs.stamp, |n| n.max(obs.stamp)));
+        self.newest = Some(horizon);
         self.commit();
         self.counters.applied += 1;
         if replayed == 0 {
@@ -400,7 +430,7 @@ mod tests {
         let mut f = Fusion::new(FusionConfig::default());
         let all = rolling_observations(30);
         for o in &all {
-            f.ingest(o);
+            f.ingest(o, o.stamp);
         }
         let t = 29.0 / 15.0 + 0.04;
         let st = f.ball_state(Stamp(T0).offset_secs(t)).expect("a state");
@@ -424,19 +454,19 @@ mod tests {
         let ordered = rolling_observations(20);
         let mut in_order = Fusion::new(FusionConfig::default());
         for o in &ordered {
-            in_order.ingest(o);
+            in_order.ingest(o, o.stamp);
         }
         // Deliver the same observations shuffled, each at most 0.4 s late.
         let mut rng = Lcg(7);
-        let mut arrivals: Vec<(f64, &Observation)> = ordered
+        let mut arrivals: Vec<(Stamp, &Observation)> = ordered
             .iter()
-            .map(|o| (o.stamp.secs_since(Stamp(T0)) + 0.4 * rng.uniform(), o))
+            .map(|o| (o.stamp.offset_secs(0.4 * rng.uniform()), o))
             .collect();
-        arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
+        arrivals.sort_by_key(|a| a.0);
         let mut shuffled = Fusion::new(FusionConfig::default());
         let mut reordered = 0;
-        for (_, o) in &arrivals {
-            if let Ingest::Reordered { .. } = shuffled.ingest(o) {
+        for (arrival, o) in &arrivals {
+            if let Ingest::Reordered { .. } = shuffled.ingest(o, *arrival) {
                 reordered += 1;
             }
         }
@@ -447,24 +477,29 @@ mod tests {
         assert_eq!(shuffled.ball_state(at), in_order.ball_state(at));
     }
 
+    /// Ingests as received 50 ms after capture.
+    fn ingest(f: &mut Fusion, o: &Observation) -> Ingest {
+        f.ingest(o, o.stamp.offset_secs(0.05))
+    }
+
     #[test]
     fn too_late_and_duplicates_are_counted_and_dropped() {
         let mut f = Fusion::new(FusionConfig::default());
         assert_eq!(
-            f.ingest(&obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+            ingest(&mut f, &obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
             Ingest::Applied
         );
         assert_eq!(
-            f.ingest(&obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+            ingest(&mut f, &obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
             Ingest::Duplicate
         );
         assert!(matches!(
-            f.ingest(&obs("b", 0, 0.3, [0.0, 0.0], 0.02)),
+            ingest(&mut f, &obs("b", 0, 0.3, [0.0, 0.0], 0.02)),
             Ingest::TooLate { .. }
         ));
         let mut bad = obs("b", 1, 1.0, [0.0, 0.0], 0.02);
         bad.covariance_m2 = [0.0; 4];
-        assert_eq!(f.ingest(&bad), Ingest::Rejected);
+        assert_eq!(ingest(&mut f, &bad), Ingest::Rejected);
         let c = f.counters();
         assert_eq!(
             (c.applied, c.duplicates, c.too_late, c.rejected),
@@ -482,10 +517,10 @@ mod tests {
             let t = k as f64 / 15.0;
             for (r, robot) in ["a", "b", "c"].iter().enumerate() {
                 let p = [0.02 * rng.normal(), 0.02 * rng.normal()];
-                f.ingest(&obs(robot, 2 * k, t + 0.01 * r as f64, p, 0.02));
+                ingest(&mut f, &obs(robot, 2 * k, t + 0.01 * r as f64, p, 0.02));
             }
             if k % 2 == 0 {
-                f.ingest(&obs("c", 2 * k + 1, t + 0.025, [1.0, 1.0], 0.02));
+                ingest(&mut f, &obs("c", 2 * k + 1, t + 0.025, [1.0, 1.0], 0.02));
             }
         }
         let st = f.ball_state(Stamp(T0).offset_secs(4.0)).expect("state");
@@ -518,7 +553,7 @@ mod tests {
             for (r, robot) in ["a", "b", "c"].iter().enumerate() {
                 let tt = t + 0.02 * r as f64;
                 let p = [truth(tt) + 0.02 * rng.normal(), 0.02 * rng.normal()];
-                f.ingest(&obs(robot, seq, tt, p, 0.02));
+                ingest(&mut f, &obs(robot, seq, tt, p, 0.02));
                 seq += 1;
             }
         }
@@ -548,7 +583,7 @@ mod tests {
             for (r, robot) in ["a", "b", "c"].iter().enumerate() {
                 let tt = t + 0.02 * r as f64;
                 let p = [truth(tt) + 0.02 * rng.normal(), 0.5 + 0.02 * rng.normal()];
-                f.ingest(&obs(robot, seq, tt, p, 0.02));
+                ingest(&mut f, &obs(robot, seq, tt, p, 0.02));
                 seq += 1;
             }
         }
@@ -564,12 +599,42 @@ mod tests {
     #[test]
     fn observations_beyond_a_wall_are_dropped_and_counted() {
         let mut f = Fusion::new(FusionConfig::default());
-        f.ingest(&obs("a", 0, 1.0, [2.6, 0.0], 0.02));
+        ingest(&mut f, &obs("a", 0, 1.0, [2.6, 0.0], 0.02));
         assert_eq!(f.counters().outside_walls, 1);
         assert!(f.tracker().tracks().is_empty());
         // Just beyond the wall but within the observation's own noise: kept.
-        f.ingest(&obs("a", 1, 1.1, [1.93, 0.0], 0.02));
+        ingest(&mut f, &obs("a", 1, 1.1, [1.93, 0.0], 0.02));
         assert_eq!(f.counters().outside_walls, 1);
         assert_eq!(f.tracker().tracks().len(), 1);
+    }
+
+    #[test]
+    fn a_robot_clock_far_ahead_is_rejected_and_harms_no_one() {
+        let mut f = Fusion::new(FusionConfig::default());
+        // Received at t = 1 s but stamped 5 s later.
+        let ahead = obs("fast", 0, 6.0, [0.0, 0.0], 0.02);
+        let out = f.ingest(&ahead, Stamp(T0).offset_secs(1.0));
+        assert!(matches!(out, Ingest::FromTheFuture { .. }), "{out:?}");
+        // Honest robots' observations at t = 1 s are still on time.
+        assert_eq!(
+            ingest(&mut f, &obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+            Ingest::Applied
+        );
+        assert_eq!(f.counters().future, 1);
+    }
+
+    #[test]
+    fn poison_is_rejected_without_touching_the_state() {
+        let mut f = Fusion::new(FusionConfig::default());
+        let mut nan = obs("a", 0, 1.0, [f64::NAN, 0.0], 0.02);
+        assert_eq!(ingest(&mut f, &nan), Ingest::Rejected);
+        nan = obs("a", 1, 1.0, [0.0, 0.0], 0.02);
+        nan.robot_pose.theta_rad = f64::INFINITY;
+        assert_eq!(ingest(&mut f, &nan), Ingest::Rejected);
+        let mut indefinite = obs("a", 2, 1.0, [0.0, 0.0], 0.02);
+        indefinite.covariance_m2 = [1e-4, 2e-4, 2e-4, 1e-4];
+        assert_eq!(ingest(&mut f, &indefinite), Ingest::Rejected);
+        assert_eq!(f.counters().rejected, 3);
+        assert!(f.tracker().tracks().is_empty());
     }
 }

@@ -58,7 +58,7 @@ fn main() {
         let at = run.stamp_of(t);
         while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {
             if !(args.without_phantom && d.kind == sim::ObsKind::Phantom) {
-                fusion.ingest(&d.obs);
+                fusion.ingest(&d.obs, d.arrival);
             }
             next += 1;
         }
