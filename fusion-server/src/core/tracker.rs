@@ -88,7 +88,7 @@ impl Default for TrackerConfig {
             main_silence_s: 0.5,
             outlier_rate_max: 0.1,
             near_robot_m: 0.4,
-            kick_boost_s: 0.4,
+            kick_boost_s: 0.2,
             learn_quiet_s: 0.4,
             learn_min_speed_mps: 0.12,
             learn_decel: true,
