@@ -24,7 +24,7 @@ pub fn is_team(scenario: &str) -> bool {
 /// Scores every method on one simulated run.
 pub fn evaluate_run(run: &SimRun) -> RunResult {
     let n_ticks = (run.duration_s / TICK_S).floor() as usize;
-    let has_phantom = run.deliveries.iter().any(|d| d.kind == ObsKind::Phantom);
+    let has_phantom = run.phantom.is_some();
     let no_phantom = |d: &Delivery| d.kind != ObsKind::Phantom;
     // Each method is also run without the phantom reports, to measure the phantom's pull.
     let scored = |with: Vec<TickRecord>, without: Option<Vec<TickRecord>>| {
@@ -44,7 +44,7 @@ pub fn evaluate_run(run: &SimRun) -> RunResult {
     );
     let mut methods = vec![(Method::Fusion, fusion), (Method::Oracle, oracle)];
     if is_team(&run.scenario)
-        && let Some(best) = best_single_robot(run, n_ticks, methods[0].1.ticks)
+        && let Some(best) = best_single_robot(run, n_ticks, methods[0].1.ticks, has_phantom)
     {
         methods.push((Method::BestSingleRobot, best));
     }
@@ -58,8 +58,12 @@ pub fn evaluate_run(run: &SimRun) -> RunResult {
 
 /// The core fed one robot's observations, for the robot that does best on its own: the
 /// lowest position RMSE among robots that keep an estimate most of the time.
-fn best_single_robot(run: &SimRun, n_ticks: usize, fused_ticks: usize) -> Option<Samples> {
-    let has_phantom = run.deliveries.iter().any(|d| d.kind == ObsKind::Phantom);
+fn best_single_robot(
+    run: &SimRun,
+    n_ticks: usize,
+    fused_ticks: usize,
+    has_phantom: bool,
+) -> Option<Samples> {
     let singles: Vec<Samples> = run
         .observer_ids()
         .into_iter()

@@ -2,7 +2,7 @@
 //! definitions: relative error η = ‖p̂ − p‖ / ‖p − p_robot‖, score s = e^(−η).
 
 use crate::methods::{HORIZONS_S, TickRecord};
-use sim::{BallEvent, ObsKind, SimRun};
+use sim::{BallEvent, SimRun};
 
 /// Ball slower than this counts as at rest for the stop-point metric.
 const MOVING_MPS: f64 = 0.05;
@@ -106,23 +106,6 @@ fn event_time(e: &BallEvent) -> f64 {
     }
 }
 
-/// Where the phantom robot's phantom ball sits (mean of its phantom reports).
-pub fn phantom_spot(run: &SimRun) -> Option<[f64; 2]> {
-    let pts: Vec<[f64; 2]> = run
-        .deliveries
-        .iter()
-        .filter(|d| d.kind == ObsKind::Phantom)
-        .map(|d| d.obs.position_m)
-        .collect();
-    (!pts.is_empty()).then(|| {
-        let n = pts.len() as f64;
-        [
-            pts.iter().map(|p| p[0]).sum::<f64>() / n,
-            pts.iter().map(|p| p[1]).sum::<f64>() / n,
-        ]
-    })
-}
-
 /// Scores one method's records on one run. `without_phantom` is the same method's records
 /// with the phantom reports withheld: the phantom's pull is measured against them (and
 /// against the truth), so that lag or noise is not mistaken for the phantom's doing.
@@ -135,7 +118,7 @@ pub fn score(
     let mut s = Samples::new();
     s.ticks = records.len();
     s.ticks_possible = n_ticks_possible;
-    let phantom = phantom_spot(run);
+    let phantom = run.phantom.as_ref().map(|(_, spot)| *spot);
     for r in records {
         let truth = run.truth_at(r.t_s);
         let p = truth.position_m;
