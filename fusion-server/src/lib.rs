@@ -3,5 +3,18 @@
 //! [`core`] is the pure fusion core: observations and time in, one ball estimate and its
 //! predicted path out. It never reads a clock and never does I/O, so the live server,
 //! offline replay and the evaluation all drive the very same code.
+//!
+//! Around it, [`engine`] (also pure) decodes, validates and counts what arrives, and the
+//! I/O shell serves it: [`serve`] (Zenoh and HTTP, through [`live`] and [`http`]),
+//! [`net`] (Zenoh session settings), [`metrics`] and [`query`].
 
+pub mod config;
 pub mod core;
+pub mod engine;
+pub mod http;
+pub mod live;
+pub mod metrics;
+pub mod net;
+pub mod query;
+pub mod serve;
+pub mod simrobots;

@@ -16,7 +16,7 @@ mod stamp;
 mod validate;
 
 pub use codec::{DecodeError, decode, encode};
-pub use keys::{DEFAULT_PREFIX, KeyError, KeySpace};
+pub use keys::{DEFAULT_PREFIX, KeyError, KeySpace, is_valid_id};
 pub use messages::{
     BallState, BallStatus, BounceEvent, Camera, CameraFootprint, HeadJoints, Intercept,
     ModelParams, Observation, PathSample, PixelBall, Pose2, Prediction, RobotStatus, StageTiming,

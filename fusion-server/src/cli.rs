@@ -1,0 +1,309 @@
+//! Command-line interface: subcommands and the flags they share.
+
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand};
+use fusion_server::config::FileConfig;
+use fusion_server::live::{Clock, SystemClock};
+use fusion_server::net::NetConfig;
+use fusion_server::serve::{self, ServeConfig};
+use fusion_server::simrobots::{self, SimRobotsConfig};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "fusion-server",
+    version,
+    about = "Team ball fusion server for MiRo robot football"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Fuse the robots' observations and serve the ball over Zenoh and HTTP.
+    Serve(ServeArgs),
+    /// The whole system on this machine: the server, simulated MiRos publishing over
+    /// loopback Zenoh, and the coach's page.
+    Demo(DemoArgs),
+    /// Simulated MiRos only: publish a simulated match's observations in real time.
+    SimRobots(SimRobotsArgs),
+}
+
+/// Flags shared by every serving subcommand.
+#[derive(Debug, Clone, Args)]
+pub struct ServeArgs {
+    /// TOML configuration file (flags override it).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// HTTP address for the API, the live stream and the page.
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub http: String,
+    /// Zenoh endpoint to listen on (repeatable).
+    #[arg(long)]
+    pub listen: Vec<String>,
+    /// Zenoh endpoint to connect to, e.g. a zenohd router (repeatable).
+    #[arg(long)]
+    pub connect: Vec<String>,
+    /// Zenoh mode: peer, client or router.
+    #[arg(long)]
+    pub mode: Option<String>,
+    /// Turn on multicast and gossip scouting (off by default: only the given endpoints).
+    #[arg(long)]
+    pub scouting: bool,
+    /// This server's id (its liveliness token is {prefix}/servers/{id}).
+    #[arg(long)]
+    pub id: Option<String>,
+    /// Key prefix.
+    #[arg(long)]
+    pub prefix: Option<String>,
+    /// Ball states published per second.
+    #[arg(long)]
+    pub rate_hz: Option<f64>,
+    /// Also publish a state right after new observations (lowest latency).
+    #[arg(long)]
+    pub on_update: bool,
+    /// Only accept these robots (comma-separated ids).
+    #[arg(long, value_delimiter = ',')]
+    pub roster: Vec<String>,
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct DemoArgs {
+    #[command(flatten)]
+    pub serve: ServeArgs,
+    /// Scenario the simulated robots play (a new seed after each match).
+    #[arg(long, default_value = "match")]
+    pub scenario: String,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Length of each simulated match, seconds.
+    #[arg(long, default_value_t = 120.0)]
+    pub match_s: f64,
+    /// Stop after this many seconds (default: run until Ctrl-C).
+    #[arg(long)]
+    pub for_s: Option<f64>,
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct SimRobotsArgs {
+    /// Zenoh endpoint of the server (or a router).
+    #[arg(long, required = true)]
+    pub connect: Vec<String>,
+    #[arg(long, default_value = "match")]
+    pub scenario: String,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Robots to play (comma-separated); default every observer in the scenario.
+    #[arg(long, value_delimiter = ',')]
+    pub robots: Vec<String>,
+    /// Match length, seconds (default: the scenario's).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Match start as nanoseconds since the UNIX epoch (default: now); processes that play
+    /// one match together must share it.
+    #[arg(long)]
+    pub start_ns: Option<u64>,
+    /// Play the next seed after each match, until stopped.
+    #[arg(long)]
+    pub repeat: bool,
+    #[arg(long, default_value = proto::DEFAULT_PREFIX)]
+    pub prefix: String,
+}
+
+/// Resolves the serving flags over the configuration file.
+pub fn serve_config(a: &ServeArgs) -> Result<ServeConfig> {
+    let mut cfg = ServeConfig::default();
+    if let Some(path) = &a.config {
+        FileConfig::load(path)?.apply(&mut cfg)?;
+    }
+    if !a.listen.is_empty() {
+        cfg.net.listen = a.listen.clone();
+    }
+    if !a.connect.is_empty() {
+        cfg.net.connect = a.connect.clone();
+    }
+    if let Some(m) = &a.mode {
+        cfg.net.mode = m.clone();
+    }
+    if a.scouting {
+        cfg.net.multicast_scouting = true;
+        cfg.net.gossip_scouting = true;
+    }
+    if let Some(id) = &a.id {
+        anyhow::ensure!(proto::is_valid_id(id), "--id {id:?} is not a valid id");
+        cfg.server_id = id.clone();
+    }
+    if let Some(p) = &a.prefix {
+        proto::KeySpace::new(p)?;
+        cfg.prefix = p.clone();
+    }
+    if let Some(r) = a.rate_hz {
+        anyhow::ensure!(r.is_finite() && r > 0.0, "--rate-hz must be positive");
+        cfg.state_rate_hz = r;
+    }
+    cfg.publish_on_update |= a.on_update;
+    if !a.roster.is_empty() {
+        cfg.engine.roster = Some(a.roster.iter().cloned().collect());
+    }
+    cfg.net.check()?;
+    Ok(cfg)
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {}
+        _ = term => {}
+    }
+}
+
+async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {
+    tokio::net::TcpListener::bind(addr)
+        .await
+        .with_context(|| format!("cannot listen for HTTP on {addr} (choose another with --http)"))
+}
+
+async fn serve_cmd(a: ServeArgs) -> Result<()> {
+    let cfg = serve_config(&a)?;
+    let http = bind_http(&a.http).await?;
+    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    println!("http://{}/", http.local_addr()?);
+    println!("zenoh {}", cfg.net.listen.join(" "));
+    serve::serve(cfg, live, http, shutdown_signal()).await
+}
+
+/// Prints a one-line summary every few seconds until `stop`.
+async fn report_progress(live: serve::Shared, mut stop: tokio::sync::watch::Receiver<bool>) {
+    let mut tick = tokio::time::interval(Duration::from_secs(5));
+    tick.tick().await;
+    loop {
+        tokio::select! {
+            _ = tick.tick() => {}
+            _ = stop.wait_for(|s| *s) => return,
+        }
+        let line = live.with_engine(|e| {
+            let now = live.clock.now();
+            let online = e.robots(now).iter().filter(|r| r.online).count();
+            let ball = e.ball_state(now).map(|b| {
+                format!(
+                    "{:?} at ({:+.2}, {:+.2}) m, {:.2} m/s",
+                    b.status,
+                    b.position_m[0],
+                    b.position_m[1],
+                    b.velocity_mps[0].hypot(b.velocity_mps[1])
+                )
+            });
+            format!(
+                "{online} robots online, {} observations fused, ball {}",
+                e.counters().observations_accepted,
+                ball.unwrap_or_else(|| "not seen yet".into())
+            )
+        });
+        tracing::info!("{line}");
+    }
+}
+
+async fn demo_cmd(a: DemoArgs) -> Result<()> {
+    let mut cfg = serve_config(&a.serve)?;
+    if cfg.net.listen.is_empty() {
+        cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
+    }
+    let endpoint = cfg.net.listen[0].clone();
+    let http = bind_http(&a.serve.http).await?;
+    let url = format!("http://{}/", http.local_addr()?);
+    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let mut server_stop = stop_rx.clone();
+    let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
+        let _ = server_stop.wait_for(|s| *s).await;
+    }));
+    let robots = SimRobotsConfig {
+        scenario: a.scenario.clone(),
+        seed: a.seed,
+        robots: Vec::new(),
+        duration_s: Some(a.match_s),
+        start: SystemClock.now().offset_secs(1.0),
+        repeat: true,
+        status_rate_hz: 5.0,
+        prefix: cfg.prefix.clone(),
+        net: NetConfig::connecting(&endpoint),
+    };
+    let sims = tokio::spawn(simrobots::run(robots, stop_rx.clone()));
+    tokio::spawn(report_progress(live.clone(), stop_rx.clone()));
+    println!(
+        "Demo running: simulated MiRos playing `{}` publish over Zenoh at {endpoint}.",
+        a.scenario
+    );
+    println!(
+        "Open {url} (API: {url}api/state, live stream: {url}api/stream, metrics: {url}metrics). Ctrl-C stops."
+    );
+    match a.for_s {
+        Some(s) => {
+            tokio::select! {
+                _ = tokio::time::sleep(Duration::from_secs_f64(s.max(0.0))) => {}
+                _ = shutdown_signal() => {}
+            }
+        }
+        None => shutdown_signal().await,
+    }
+    let _ = stop_tx.send(true);
+    let published = sims.await.context("simulated robots")??;
+    server.await.context("server")??;
+    let fused = live.with_engine(|e| e.counters().observations_accepted);
+    println!("Demo stopped: {published} observations published, {fused} fused.");
+    Ok(())
+}
+
+async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
+    let cfg = SimRobotsConfig {
+        scenario: a.scenario,
+        seed: a.seed,
+        robots: a.robots,
+        duration_s: a.duration_s,
+        start: a
+            .start_ns
+            .map(proto::Stamp)
+            .unwrap_or_else(|| SystemClock.now()),
+        repeat: a.repeat,
+        status_rate_hz: 5.0,
+        prefix: a.prefix,
+        net: NetConfig {
+            connect: a.connect,
+            ..NetConfig::default()
+        },
+    };
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    tokio::spawn(async move {
+        shutdown_signal().await;
+        let _ = stop_tx.send(true);
+    });
+    let n = simrobots::run(cfg, stop_rx).await?;
+    println!("published {n} observations");
+    Ok(())
+}
+
+pub async fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Serve(a) => serve_cmd(a).await,
+        Command::Demo(a) => demo_cmd(a).await,
+        Command::SimRobots(a) => sim_robots_cmd(a).await,
+    }
+}

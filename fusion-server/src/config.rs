@@ -1,0 +1,213 @@
+//! The server's configuration file (TOML). Every field is optional; command-line flags
+//! override the file, and the file overrides the defaults.
+
+use crate::net::NetConfig;
+use crate::serve::ServeConfig;
+use proto::Pitch;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum ConfigError {
+    #[error("reading {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Parse {
+        path: PathBuf,
+        source: toml::de::Error,
+    },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// `[record]`: the match log.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RecordFile {
+    pub dir: Option<PathBuf>,
+    /// Start a new file after this many megabytes...
+    pub max_mb: Option<f64>,
+    /// ... or after this many minutes of match time.
+    pub max_minutes: Option<f64>,
+    /// Finish a chunk at least this often (bounds what a crash can lose).
+    pub flush_interval_s: Option<f64>,
+}
+
+/// `[fusion]`: tuning of the fusion core that an installation may need to change.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FusionFile {
+    pub late_window_s: Option<f64>,
+    pub horizon_s: Option<f64>,
+    pub lost_after_s: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FileConfig {
+    pub server_id: Option<String>,
+    pub prefix: Option<String>,
+    /// HTTP address, e.g. `127.0.0.1:8080`.
+    pub http: Option<String>,
+    pub state_rate_hz: Option<f64>,
+    pub publish_on_update: Option<bool>,
+    pub stream_buffer: Option<usize>,
+    /// Top speed assumed for intercepts when a query gives none.
+    pub robot_speed_mps: Option<f64>,
+    /// Accept only these robots.
+    pub roster: Option<Vec<String>>,
+    pub zenoh: Option<NetConfig>,
+    pub pitch: Option<Pitch>,
+    pub fusion: FusionFile,
+    pub record: RecordFile,
+}
+
+impl FileConfig {
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        toml::from_str(text).map_err(|source| ConfigError::Parse {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Applies the file's settings over `cfg`.
+    pub fn apply(&self, cfg: &mut ServeConfig) -> Result<(), ConfigError> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(ConfigError::Invalid(format!(
+                    "{name} must be positive, got {v}"
+                )))
+            }
+        };
+        if let Some(id) = &self.server_id {
+            if !proto::is_valid_id(id) {
+                return Err(ConfigError::Invalid(format!(
+                    "server_id {id:?} is not a valid id"
+                )));
+            }
+            cfg.server_id = id.clone();
+        }
+        if let Some(p) = &self.prefix {
+            proto::KeySpace::new(p).map_err(|e| ConfigError::Invalid(e.to_string()))?;
+            cfg.prefix = p.clone();
+        }
+        if let Some(r) = self.state_rate_hz {
+            cfg.state_rate_hz = positive("state_rate_hz", r)?;
+        }
+        if let Some(b) = self.publish_on_update {
+            cfg.publish_on_update = b;
+        }
+        if let Some(n) = self.stream_buffer {
+            cfg.stream_buffer = n.max(1);
+        }
+        if let Some(s) = self.robot_speed_mps {
+            cfg.engine.robot_speed_mps = positive("robot_speed_mps", s)?;
+        }
+        if let Some(r) = &self.roster {
+            if let Some(bad) = r.iter().find(|id| !proto::is_valid_id(id)) {
+                return Err(ConfigError::Invalid(format!(
+                    "roster id {bad:?} is not a valid id"
+                )));
+            }
+            cfg.engine.roster = Some(r.iter().cloned().collect());
+        }
+        if let Some(z) = &self.zenoh {
+            z.check().map_err(|e| ConfigError::Invalid(e.to_string()))?;
+            cfg.net = z.clone();
+        }
+        if let Some(p) = &self.pitch {
+            if !(p.length_m > 0.0 && p.width_m > 0.0 && p.ball_radius_m > 0.0) {
+                return Err(ConfigError::Invalid("pitch sizes must be positive".into()));
+            }
+            cfg.engine.fusion.pitch = p.clone();
+        }
+        let f = &self.fusion;
+        if let Some(v) = f.late_window_s {
+            cfg.engine.fusion.late_window_s = positive("fusion.late_window_s", v)?;
+        }
+        if let Some(v) = f.horizon_s {
+            cfg.engine.fusion.horizon_s = positive("fusion.horizon_s", v)?;
+        }
+        if let Some(v) = f.lost_after_s {
+            cfg.engine.fusion.lost_after_s = positive("fusion.lost_after_s", v)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = r#"
+server_id = "pitch-a"
+prefix = "lab/pitch_2"
+http = "127.0.0.1:9000"
+state_rate_hz = 50
+roster = ["miro1", "miro2"]
+
+[zenoh]
+mode = "peer"
+listen = ["tcp/127.0.0.1:7500"]
+connect = ["tcp/127.0.0.1:7447"]
+
+[fusion]
+late_window_s = 0.3
+
+[record]
+dir = "logs"
+max_mb = 200
+"#;
+
+    #[test]
+    fn a_full_file_applies() -> Result<(), ConfigError> {
+        let f = FileConfig::parse(EXAMPLE, Path::new("x.toml"))?;
+        let mut cfg = ServeConfig::default();
+        f.apply(&mut cfg)?;
+        assert_eq!(cfg.server_id, "pitch-a");
+        assert_eq!(cfg.prefix, "lab/pitch_2");
+        assert_eq!(cfg.state_rate_hz, 50.0);
+        assert_eq!(cfg.net.connect, vec!["tcp/127.0.0.1:7447"]);
+        assert!(!cfg.net.multicast_scouting);
+        assert_eq!(cfg.engine.fusion.late_window_s, 0.3);
+        assert_eq!(cfg.engine.roster.as_ref().map(|r| r.len()), Some(2));
+        assert_eq!(f.record.max_mb, Some(200.0));
+        Ok(())
+    }
+
+    #[test]
+    fn mistakes_are_reported() {
+        let p = Path::new("x.toml");
+        assert!(matches!(
+            FileConfig::parse("colour = 3", p),
+            Err(ConfigError::Parse { .. })
+        ));
+        let mut cfg = ServeConfig::default();
+        for bad in [
+            "state_rate_hz = 0",
+            "roster = [\"a b\"]",
+            "prefix = \"/x\"",
+            "[zenoh]\nlisten = [\"127.0.0.1\"]",
+        ] {
+            let f = FileConfig::parse(bad, p).expect(bad);
+            assert!(
+                matches!(f.apply(&mut cfg), Err(ConfigError::Invalid(_))),
+                "{bad}"
+            );
+        }
+    }
+}

@@ -1,0 +1,371 @@
+//! The server's state machine around the fusion core: decodes and validates what arrives,
+//! feeds the core, keeps the roster of robots, answers queries and counts everything.
+//! Like the core it never reads a clock and does no I/O: the shell passes time and bytes in.
+
+use crate::core::{Fusion, FusionConfig, Ingest};
+use crate::query::{BallQuery, QueryError, QueryReply};
+use proto::{
+    BallState, DecodeError, Intercept, Observation, Pitch, Pose2, RobotStatus, Stamp, VERSION,
+    Validate, ValidationContext, ValidationError,
+};
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
+use thiserror::Error;
+
+/// Why an inbound message was not used.
+#[derive(Debug, Error)]
+pub enum Rejection {
+    #[error("{0}")]
+    Decode(#[from] DecodeError),
+    #[error("{0}")]
+    Invalid(#[from] ValidationError),
+    #[error("robot {0:?} is not on the roster")]
+    UnknownRobot(String),
+    #[error("payload robot_id {payload:?} does not match the key's robot {key:?}")]
+    KeyMismatch { key: String, payload: String },
+    #[error("the fusion core refused it: {0}")]
+    Core(&'static str),
+}
+
+impl Rejection {
+    /// A short stable label for counting rejections by reason.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Rejection::Decode(DecodeError::Json(_)) => "not_json",
+            Rejection::Decode(DecodeError::Version { .. }) => "version",
+            Rejection::Decode(DecodeError::MissingVersion) => "no_version",
+            Rejection::Invalid(e) => e.reason(),
+            Rejection::UnknownRobot(_) => "unknown_robot",
+            Rejection::KeyMismatch { .. } => "key_mismatch",
+            Rejection::Core(r) => r,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct EngineConfig {
+    pub fusion: FusionConfig,
+    /// When set, only these robots are accepted.
+    pub roster: Option<BTreeSet<String>>,
+    /// Robot top speed for intercepts when the query does not give one.
+    pub robot_speed_mps: f64,
+    /// Largest accepted |capture stamp − receiver clock|.
+    pub max_clock_skew_s: f64,
+    /// Largest accepted distance of a reported position outside the pitch.
+    pub max_outside_m: f64,
+}
+
+impl Default for EngineConfig {
+    fn default() -> Self {
+        EngineConfig {
+            fusion: FusionConfig::default(),
+            roster: None,
+            robot_speed_mps: 0.4,
+            max_clock_skew_s: 10.0,
+            max_outside_m: 1.0,
+        }
+    }
+}
+
+/// Messages per second, exponentially averaged over about `RATE_TAU_S`.
+const RATE_TAU_S: f64 = 2.0;
+
+#[derive(Debug, Clone, Default)]
+struct Rate {
+    per_s: f64,
+    at: Option<Stamp>,
+}
+
+impl Rate {
+    fn decayed(&self, now: Stamp) -> f64 {
+        match self.at {
+            Some(at) => self.per_s * (-now.secs_since(at).max(0.0) / RATE_TAU_S).exp(),
+            None => 0.0,
+        }
+    }
+    fn hit(&mut self, now: Stamp) {
+        self.per_s = self.decayed(now) + 1.0 / RATE_TAU_S;
+        self.at = Some(now.max(self.at.unwrap_or(now)));
+    }
+}
+
+#[derive(Debug, Clone, Default)]
+struct RobotEntry {
+    online: bool,
+    /// When `online` last changed (receiver clock).
+    since: Option<Stamp>,
+    status: Option<RobotStatus>,
+    status_received: Option<Stamp>,
+    last_obs_received: Option<Stamp>,
+    accepted: u64,
+    rejected: u64,
+    rate: Rate,
+}
+
+/// One robot as the server sees it, for the HTTP API and the live stream.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RobotView {
+    pub robot_id: String,
+    pub online: bool,
+    /// Seconds since `online` last changed.
+    pub since_s: Option<f64>,
+    /// Seconds since its last observation arrived.
+    pub last_obs_age_s: Option<f64>,
+    pub obs_rate_hz: f64,
+    pub observations_accepted: u64,
+    pub observations_rejected: u64,
+    /// Factor the fusion applies to the covariances this robot reports (1 = honest).
+    pub covariance_scale: Option<f64>,
+    /// Share of its observations that the other robots did not confirm.
+    pub outlier_rate: Option<f64>,
+    /// Pose from its latest status, else from its latest observation.
+    pub pose: Option<Pose2>,
+    pub status: Option<RobotStatus>,
+}
+
+/// Counts of what arrived and what became of it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EngineCounters {
+    pub observations_accepted: u64,
+    pub statuses_accepted: u64,
+    /// (message kind, reason) → count.
+    pub rejected: BTreeMap<(&'static str, &'static str), u64>,
+}
+
+/// The fusion server's pure state.
+#[derive(Debug, Clone)]
+pub struct Engine {
+    cfg: EngineConfig,
+    fusion: Fusion,
+    robots: BTreeMap<String, RobotEntry>,
+    counters: EngineCounters,
+}
+
+impl Engine {
+    pub fn new(cfg: EngineConfig) -> Self {
+        Engine {
+            fusion: Fusion::new(cfg.fusion.clone()),
+            cfg,
+            robots: BTreeMap::new(),
+            counters: EngineCounters::default(),
+        }
+    }
+
+    pub fn config(&self) -> &EngineConfig {
+        &self.cfg
+    }
+
+    pub fn pitch(&self) -> &Pitch {
+        &self.cfg.fusion.pitch
+    }
+
+    pub fn fusion(&self) -> &Fusion {
+        &self.fusion
+    }
+
+    pub fn counters(&self) -> &EngineCounters {
+        &self.counters
+    }
+
+    fn context(&self, now: Stamp) -> ValidationContext {
+        ValidationContext {
+            pitch: self.cfg.fusion.pitch.clone(),
+            now,
+            max_clock_skew_s: self.cfg.max_clock_skew_s,
+            max_outside_m: self.cfg.max_outside_m,
+        }
+    }
+
+    fn check_robot(&self, key_robot: Option<&str>, robot_id: &str) -> Result<(), Rejection> {
+        if let Some(key) = key_robot
+            && key != robot_id
+        {
+            return Err(Rejection::KeyMismatch {
+                key: key.to_string(),
+                payload: robot_id.to_string(),
+            });
+        }
+        match &self.cfg.roster {
+            Some(r) if !r.contains(robot_id) => Err(Rejection::UnknownRobot(robot_id.into())),
+            _ => Ok(()),
+        }
+    }
+
+    fn reject(&mut self, kind: &'static str, robot: Option<&str>, e: Rejection) -> Rejection {
+        *self
+            .counters
+            .rejected
+            .entry((kind, e.reason()))
+            .or_default() += 1;
+        // Only robots that may exist get an entry: a flood of made-up ids must not grow it.
+        if let Some(entry) = robot.and_then(|r| self.robots.get_mut(r)) {
+            entry.rejected += 1;
+        }
+        e
+    }
+
+    /// An observation's payload, received at `received` on the key of robot `key_robot`.
+    pub fn observation(
+        &mut self,
+        key_robot: Option<&str>,
+        payload: &[u8],
+        received: Stamp,
+    ) -> Result<(Observation, Ingest), Rejection> {
+        let obs: Observation = match proto::decode(payload) {
+            Ok(o) => o,
+            Err(e) => return Err(self.reject("observation", key_robot, e.into())),
+        };
+        self.observation_decoded(key_robot, obs, received)
+    }
+
+    /// An already decoded observation (replay, in-process publishers).
+    pub fn observation_decoded(
+        &mut self,
+        key_robot: Option<&str>,
+        obs: Observation,
+        received: Stamp,
+    ) -> Result<(Observation, Ingest), Rejection> {
+        let checked = self
+            .check_robot(key_robot, &obs.robot_id)
+            .and_then(|()| Ok(obs.validate(&self.context(received))?));
+        if let Err(e) = checked {
+            return Err(self.reject("observation", Some(&obs.robot_id), e));
+        }
+        let outcome = self.fusion.ingest(&obs, received);
+        let refused = match outcome {
+            Ingest::TooLate { .. } => Some("too_late"),
+            Ingest::Duplicate => Some("duplicate"),
+            Ingest::Rejected => Some("unusable"),
+            Ingest::FromTheFuture { .. } => Some("future"),
+            Ingest::Applied | Ingest::Reordered { .. } => None,
+        };
+        if let Some(r) = refused {
+            return Err(self.reject("observation", Some(&obs.robot_id), Rejection::Core(r)));
+        }
+        self.counters.observations_accepted += 1;
+        let entry = self.robots.entry(obs.robot_id.clone()).or_default();
+        entry.accepted += 1;
+        entry.last_obs_received = Some(received);
+        entry.rate.hit(received);
+        Ok((obs, outcome))
+    }
+
+    /// A status payload.
+    pub fn status(
+        &mut self,
+        key_robot: Option<&str>,
+        payload: &[u8],
+        received: Stamp,
+    ) -> Result<RobotStatus, Rejection> {
+        let status: RobotStatus = match proto::decode(payload) {
+            Ok(s) => s,
+            Err(e) => return Err(self.reject("status", key_robot, e.into())),
+        };
+        let checked = self
+            .check_robot(key_robot, &status.robot_id)
+            .and_then(|()| Ok(status.validate(&self.context(received))?));
+        if let Err(e) = checked {
+            return Err(self.reject("status", Some(&status.robot_id), e));
+        }
+        self.counters.statuses_accepted += 1;
+        let entry = self.robots.entry(status.robot_id.clone()).or_default();
+        entry.status = Some(status.clone());
+        entry.status_received = Some(received);
+        Ok(status)
+    }
+
+    /// A robot's liveliness token appeared (`alive`) or went away.
+    pub fn liveliness(&mut self, robot_id: &str, alive: bool, at: Stamp) -> Result<(), Rejection> {
+        if !proto::is_valid_id(robot_id) {
+            let e = Rejection::Invalid(ValidationError::BadRobotId(robot_id.into()));
+            return Err(self.reject("liveliness", None, e));
+        }
+        self.check_robot(None, robot_id)
+            .map_err(|e| self.reject("liveliness", None, e))?;
+        let entry = self.robots.entry(robot_id.to_string()).or_default();
+        if entry.online != alive || entry.since.is_none() {
+            entry.online = alive;
+            entry.since = Some(at);
+        }
+        Ok(())
+    }
+
+    /// The ball estimate at `at`, with its prediction; `None` before any ball was seen.
+    pub fn ball_state(&self, at: Stamp) -> Option<BallState> {
+        self.fusion.ball_state(at)
+    }
+
+    fn robot_pose(&self, robot_id: &str) -> Option<Pose2> {
+        let status = self
+            .robots
+            .get(robot_id)
+            .and_then(|r| r.status.as_ref())
+            .map(|s| (s.stamp, s.pose));
+        let from_obs = self
+            .fusion
+            .robots()
+            .iter()
+            .find(|t| &*t.robot == robot_id)
+            .map(|t| t.pose);
+        status.map(|(_, p)| p).or(from_obs)
+    }
+
+    /// Every robot heard of, by id.
+    pub fn robots(&self, now: Stamp) -> Vec<RobotView> {
+        let trust = self.fusion.robots();
+        self.robots
+            .iter()
+            .map(|(id, r)| {
+                let t = trust.iter().find(|t| &*t.robot == id.as_str());
+                RobotView {
+                    robot_id: id.clone(),
+                    online: r.online,
+                    since_s: r.since.map(|s| now.secs_since(s)),
+                    last_obs_age_s: r.last_obs_received.map(|s| now.secs_since(s)),
+                    obs_rate_hz: r.rate.decayed(now),
+                    observations_accepted: r.accepted,
+                    observations_rejected: r.rejected,
+                    covariance_scale: t.map(|t| t.covariance_scale),
+                    outlier_rate: t.map(|t| t.outlier_rate),
+                    pose: self.robot_pose(id),
+                    status: r.status.clone(),
+                }
+            })
+            .collect()
+    }
+
+    /// Answers a prediction or intercept query at `at`.
+    pub fn query(&self, q: &BallQuery, at: Stamp) -> Result<QueryReply, QueryError> {
+        match q {
+            BallQuery::Predict { horizon_s } => self
+                .fusion
+                .predict(at, *horizon_s)
+                .map(QueryReply::Prediction)
+                .ok_or(QueryError::NoEstimate),
+            BallQuery::Intercept {
+                robot_id,
+                speed_mps,
+            } => {
+                let pose = self
+                    .robot_pose(robot_id)
+                    .ok_or_else(|| QueryError::UnknownRobot(robot_id.clone()))?;
+                let speed = speed_mps.unwrap_or(self.cfg.robot_speed_mps);
+                let s = self
+                    .fusion
+                    .intercept(at, [pose.x_m, pose.y_m], speed)
+                    .ok_or(QueryError::NoEstimate)?;
+                Ok(QueryReply::Intercept(Intercept {
+                    version: VERSION,
+                    robot_id: robot_id.clone(),
+                    stamp: at,
+                    reachable_in_motion: s.reachable_in_motion,
+                    t_s: s.t_s,
+                    point_m: s.point_m,
+                }))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

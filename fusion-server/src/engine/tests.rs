@@ -1,0 +1,161 @@
+use super::*;
+use proto::{Camera, Observation, Pose2};
+use std::collections::BTreeSet;
+
+const T0: u64 = 1_800_000_000_000_000_000;
+
+fn at(t_s: f64) -> Stamp {
+    Stamp(T0).offset_secs(t_s)
+}
+
+fn obs(robot: &str, seq: u64, t_s: f64, x_m: f64) -> Observation {
+    Observation {
+        version: proto::VERSION,
+        robot_id: robot.into(),
+        seq,
+        camera: Camera::Left,
+        stamp: at(t_s),
+        position_m: [x_m, 0.2],
+        covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
+        confidence: 0.9,
+        robot_pose: Pose2 {
+            x_m: -1.0,
+            y_m: 0.5,
+            theta_rad: 0.0,
+        },
+        pixel: None,
+    }
+}
+
+fn feed(e: &mut Engine, robot: &str, n: u64) {
+    for k in 0..n {
+        let t = k as f64 / 15.0;
+        let o = obs(robot, k, t, 0.3 * t);
+        let r = e.observation(Some(robot), &proto::encode(&o), at(t + 0.05));
+        assert!(r.is_ok(), "{r:?}");
+    }
+}
+
+fn rejected(e: &Engine, reason: &str) -> u64 {
+    e.counters()
+        .rejected
+        .iter()
+        .filter(|((_, r), _)| *r == reason)
+        .map(|(_, n)| n)
+        .sum()
+}
+
+#[test]
+fn good_observations_make_a_ball_state_and_a_robot() {
+    let mut e = Engine::new(EngineConfig::default());
+    feed(&mut e, "miro1", 30);
+    assert_eq!(e.counters().observations_accepted, 30);
+    let s = e.ball_state(at(2.0)).expect("a ball");
+    assert!((s.position_m[0] - 0.6).abs() < 0.05, "{:?}", s.position_m);
+    let robots = e.robots(at(2.0));
+    assert_eq!(robots.len(), 1);
+    assert_eq!(robots[0].observations_accepted, 30);
+    assert!(robots[0].obs_rate_hz > 3.0, "{}", robots[0].obs_rate_hz);
+}
+
+#[test]
+fn every_kind_of_bad_input_is_counted_and_good_input_keeps_flowing() {
+    let mut e = Engine::new(EngineConfig {
+        roster: Some(BTreeSet::from(["miro1".to_string()])),
+        ..EngineConfig::default()
+    });
+    let now = at(0.1);
+    let good = obs("miro1", 0, 0.0, 0.0);
+    let mut wrong_version = serde_json::to_value(&good).expect("json");
+    wrong_version["version"] = 7.into();
+    let mut not_pd = good.clone();
+    not_pd.covariance_m2 = [1e-4, 0.0, 0.0, -1e-4];
+    let mut absurd = good.clone();
+    absurd.stamp = Stamp(5);
+    let stranger = obs("miro9", 0, 0.0, 0.0);
+    let cases: Vec<(Vec<u8>, &str, &str)> = vec![
+        (b"not json".to_vec(), "miro1", "not_json"),
+        (b"{}".to_vec(), "miro1", "no_version"),
+        (wrong_version.to_string().into_bytes(), "miro1", "version"),
+        (proto::encode(&not_pd), "miro1", "covariance_not_pd"),
+        (proto::encode(&absurd), "miro1", "stamp"),
+        (proto::encode(&stranger), "miro9", "unknown_robot"),
+        (proto::encode(&good), "miro2", "key_mismatch"),
+    ];
+    for (payload, key, reason) in &cases {
+        let r = e.observation(Some(key), payload, now);
+        let err = r.expect_err(reason);
+        assert_eq!(err.reason(), *reason, "{err}");
+        assert_eq!(rejected(&e, reason), 1, "{reason}");
+    }
+    feed(&mut e, "miro1", 10);
+    assert_eq!(e.counters().observations_accepted, 10);
+    assert!(e.robots(at(1.0)).iter().all(|r| r.robot_id != "miro9"));
+    // The same observation twice is a duplicate, counted as such.
+    let dup = obs("miro1", 3, 3.0 / 15.0, 0.3 * 3.0 / 15.0);
+    let r = e.observation(Some("miro1"), &proto::encode(&dup), at(0.7));
+    assert_eq!(r.expect_err("dup").reason(), "duplicate");
+}
+
+#[test]
+fn statuses_and_liveliness_update_the_roster() {
+    let mut e = Engine::new(EngineConfig::default());
+    assert!(e.liveliness("miro1", true, at(0.0)).is_ok());
+    assert!(e.liveliness("bad/id", true, at(0.0)).is_err());
+    let status = proto::RobotStatus {
+        version: proto::VERSION,
+        robot_id: "miro1".into(),
+        stamp: at(0.5),
+        pose: Pose2 {
+            x_m: 1.0,
+            y_m: -0.5,
+            theta_rad: 0.3,
+        },
+        pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-3],
+        head: proto::HeadJoints::default(),
+        fps: 15.0,
+        timings: vec![],
+        footprints: vec![],
+    };
+    assert!(
+        e.status(Some("miro1"), &proto::encode(&status), at(0.5))
+            .is_ok()
+    );
+    let r = &e.robots(at(1.0))[0];
+    assert!(r.online);
+    assert_eq!(r.pose.map(|p| p.x_m), Some(1.0));
+    assert!((r.since_s.unwrap_or(0.0) - 1.0).abs() < 1e-9);
+    assert!(e.liveliness("miro1", false, at(2.0)).is_ok());
+    assert!(!e.robots(at(2.5))[0].online);
+}
+
+#[test]
+fn queries_answer_predictions_and_intercepts() {
+    let mut e = Engine::new(EngineConfig::default());
+    let q = BallQuery::Predict { horizon_s: 1.0 };
+    assert_eq!(e.query(&q, at(0.0)), Err(QueryError::NoEstimate));
+    feed(&mut e, "miro1", 30);
+    match e.query(&q, at(2.0)) {
+        Ok(QueryReply::Prediction(p)) => assert!((p.horizon_s - 1.0).abs() < 1e-12),
+        other => panic!("{other:?}"),
+    }
+    let icpt = BallQuery::Intercept {
+        robot_id: "miro1".into(),
+        speed_mps: Some(0.4),
+    };
+    match e.query(&icpt, at(2.0)) {
+        Ok(QueryReply::Intercept(i)) => {
+            assert_eq!(i.robot_id, "miro1");
+            assert!(i.t_s > 0.0 && i.t_s.is_finite());
+        }
+        other => panic!("{other:?}"),
+    }
+    let nobody = BallQuery::Intercept {
+        robot_id: "ghost".into(),
+        speed_mps: None,
+    };
+    assert_eq!(
+        e.query(&nobody, at(2.0)),
+        Err(QueryError::UnknownRobot("ghost".into()))
+    );
+}

@@ -1,0 +1,161 @@
+//! The HTTP face of the server: the JSON API, the live WebSocket stream, health, metrics and
+//! the coach's page (embedded at build time).
+
+use crate::live::Live;
+use crate::query::{self, BallQuery, QueryError};
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::{Query, State};
+use axum::http::{StatusCode, Uri, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::{Json, Router};
+use std::sync::Arc;
+use std::sync::atomic::Ordering::Relaxed;
+use tokio::sync::broadcast::error::RecvError;
+
+/// The coach's page and its assets: (path, content type, bytes).
+const WEB: &[(&str, &str, &[u8])] = &[
+    (
+        "/",
+        "text/html; charset=utf-8",
+        include_bytes!("../../web/index.html"),
+    ),
+    (
+        "/index.html",
+        "text/html; charset=utf-8",
+        include_bytes!("../../web/index.html"),
+    ),
+];
+
+/// The router over the live server state.
+pub fn app(live: Arc<Live>) -> Router {
+    Router::new()
+        .route("/api/state", get(state))
+        .route("/api/robots", get(robots))
+        .route("/api/predict", get(predict))
+        .route("/api/intercept", get(intercept))
+        .route("/api/stream", get(stream))
+        .route("/healthz", get(health))
+        .route("/metrics", get(metrics))
+        .fallback(get(web))
+        .with_state(live)
+}
+
+fn json_text(body: String) -> Response {
+    ([(header::CONTENT_TYPE, "application/json")], body).into_response()
+}
+
+fn error(status: StatusCode, msg: impl ToString) -> Response {
+    (
+        status,
+        Json(serde_json::json!({ "error": msg.to_string() })),
+    )
+        .into_response()
+}
+
+async fn state(State(live): State<Arc<Live>>) -> Response {
+    json_text(live.view_json())
+}
+
+async fn robots(State(live): State<Arc<Live>>) -> Response {
+    json_text(live.robots_json())
+}
+
+fn answer(live: &Live, q: Result<BallQuery, QueryError>) -> Response {
+    let reply = q.and_then(|q| live.query(&q));
+    match reply {
+        Ok(r) => ([(header::CONTENT_TYPE, "application/json")], r.to_json()).into_response(),
+        Err(e) if e.is_bad_request() => error(StatusCode::BAD_REQUEST, e),
+        Err(e) => error(StatusCode::NOT_FOUND, e),
+    }
+}
+
+type Params = Query<Vec<(String, String)>>;
+
+fn pairs(p: &[(String, String)]) -> impl Iterator<Item = (&str, &str)> {
+    p.iter().map(|(k, v)| (k.as_str(), v.as_str()))
+}
+
+async fn predict(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
+    let q = query::parse(pairs(&p)).and_then(|q| match q {
+        BallQuery::Predict { .. } => Ok(q),
+        BallQuery::Intercept { .. } => Err(QueryError::Unknown("robot".into())),
+    });
+    answer(&live, q)
+}
+
+async fn intercept(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
+    let q = query::parse(pairs(&p)).and_then(|q| match q {
+        BallQuery::Intercept { .. } => Ok(q),
+        BallQuery::Predict { .. } => Err(QueryError::Unknown("t".into())),
+    });
+    answer(&live, q)
+}
+
+async fn health(State(live): State<Arc<Live>>) -> Response {
+    let (robots_online, ball) = live.with_engine(|e| {
+        let now = live.clock.now();
+        let online = e.robots(now).iter().filter(|r| r.online).count();
+        (online, e.ball_state(now).map(|b| b.status))
+    });
+    Json(serde_json::json!({
+        "status": "ok",
+        "robots_online": robots_online,
+        "ball": ball,
+    }))
+    .into_response()
+}
+
+async fn metrics(State(live): State<Arc<Live>>) -> Response {
+    (
+        [(header::CONTENT_TYPE, "text/plain; version=0.0.4")],
+        live.metrics_text(),
+    )
+        .into_response()
+}
+
+async fn web(uri: Uri) -> Response {
+    match WEB.iter().find(|(p, _, _)| *p == uri.path()) {
+        Some((_, ty, body)) => ([(header::CONTENT_TYPE, *ty)], *body).into_response(),
+        None => error(
+            StatusCode::NOT_FOUND,
+            format!("no such page: {}", uri.path()),
+        ),
+    }
+}
+
+async fn stream(State(live): State<Arc<Live>>, ws: WebSocketUpgrade) -> Response {
+    ws.on_upgrade(move |socket| serve_stream(live, socket))
+}
+
+/// Pushes every published state to one client. The broadcast buffer is bounded: a client
+/// that cannot keep up skips frames (counted) and the publisher never waits for it.
+async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
+    let mut rx = live.stream.subscribe();
+    live.stats.ws_clients.fetch_add(1, Relaxed);
+    let first = live.view_json();
+    let mut open = socket.send(Message::Text(first.into())).await.is_ok();
+    while open {
+        tokio::select! {
+            frame = rx.recv() => match frame {
+                Ok(f) => {
+                    open = socket.send(Message::Text(f.as_ref().into())).await.is_ok();
+                    if open {
+                        live.stats.ws_frames_sent.fetch_add(1, Relaxed);
+                    }
+                }
+                Err(RecvError::Lagged(n)) => {
+                    live.stats.ws_frames_dropped.fetch_add(n, Relaxed);
+                }
+                Err(RecvError::Closed) => open = false,
+            },
+            incoming = socket.recv() => {
+                open = matches!(incoming, Some(Ok(m)) if !matches!(m, Message::Close(_)));
+            }
+        }
+    }
+    live.stats.ws_clients.fetch_sub(1, Relaxed);
+}
+
+#[cfg(test)]
+mod tests;

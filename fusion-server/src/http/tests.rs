@@ -1,0 +1,181 @@
+use super::*;
+use crate::engine::{Engine, EngineConfig};
+use crate::live::{Clock, Live};
+use axum::body::Body;
+use axum::http::Request;
+use http_body_util::BodyExt;
+use proto::{Camera, KeySpace, Observation, Pose2, Stamp};
+use std::sync::atomic::{AtomicU64, Ordering};
+use tower::ServiceExt;
+
+/// A clock the test moves by hand.
+#[derive(Debug, Default)]
+struct HandClock(AtomicU64);
+
+impl Clock for HandClock {
+    fn now(&self) -> Stamp {
+        Stamp(self.0.load(Ordering::SeqCst))
+    }
+}
+
+const T0: u64 = 1_800_000_000_000_000_000;
+
+fn live_with_ball() -> (Arc<Live>, Arc<HandClock>) {
+    let clock = Arc::new(HandClock(AtomicU64::new(T0)));
+    let live = Arc::new(Live::new(
+        Engine::new(EngineConfig::default()),
+        KeySpace::default(),
+        clock.clone(),
+        4,
+        false,
+        None,
+    ));
+    for k in 0..30u64 {
+        let t = k as f64 / 15.0;
+        let o = Observation {
+            version: proto::VERSION,
+            robot_id: "miro1".into(),
+            seq: k,
+            camera: Camera::Right,
+            stamp: Stamp(T0).offset_secs(t),
+            position_m: [0.3 * t, 0.0],
+            covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
+            confidence: 0.9,
+            robot_pose: Pose2::default(),
+            pixel: None,
+        };
+        clock
+            .0
+            .store(Stamp(T0).offset_secs(t + 0.05).0, Ordering::SeqCst);
+        live.on_observation("rf/robots/miro1/obs", &proto::encode(&o));
+    }
+    live.on_observation("rf/robots/miro1/obs", b"garbage");
+    (live, clock)
+}
+
+async fn get(app: Router, uri: &str) -> (StatusCode, String) {
+    let req = Request::builder()
+        .uri(uri)
+        .body(Body::empty())
+        .expect("request");
+    let resp = app.oneshot(req).await.expect("response");
+    let status = resp.status();
+    let body = resp.into_body().collect().await.expect("body").to_bytes();
+    (status, String::from_utf8_lossy(&body).into_owned())
+}
+
+fn json(body: &str) -> serde_json::Value {
+    serde_json::from_str(body).expect("JSON body")
+}
+
+#[tokio::test]
+async fn state_robots_and_health() {
+    let (live, _) = live_with_ball();
+    let (s, body) = get(app(live.clone()), "/api/state").await;
+    assert_eq!(s, StatusCode::OK);
+    let v = json(&body);
+    let x = v["ball"]["position_m"][0].as_f64().expect("x");
+    assert!((x - 0.3 * 29.0 / 15.0).abs() < 0.05, "{x}");
+    assert_eq!(v["robots"][0]["robot_id"], "miro1");
+    assert!(v["pitch"]["length_m"].as_f64().is_some());
+    let (s, body) = get(app(live.clone()), "/api/robots").await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(json(&body)[0]["observations_accepted"], 30);
+    let (s, body) = get(app(live), "/healthz").await;
+    assert_eq!(s, StatusCode::OK);
+    assert_eq!(json(&body)["status"], "ok");
+}
+
+#[tokio::test]
+async fn predict_and_intercept_answer_or_explain() {
+    let (live, _) = live_with_ball();
+    let (s, body) = get(app(live.clone()), "/api/predict?t=1.5").await;
+    assert_eq!(s, StatusCode::OK, "{body}");
+    let p: proto::Prediction = proto::decode(body.as_bytes()).expect("a Prediction");
+    assert_eq!(p.horizon_s, 1.5);
+    let (s, body) = get(app(live.clone()), "/api/intercept?robot=miro1&speed=0.4").await;
+    assert_eq!(s, StatusCode::OK, "{body}");
+    let i: proto::Intercept = proto::decode(body.as_bytes()).expect("an Intercept");
+    assert_eq!(i.robot_id, "miro1");
+    for (uri, want) in [
+        ("/api/predict", StatusCode::BAD_REQUEST),
+        ("/api/predict?t=abc", StatusCode::BAD_REQUEST),
+        ("/api/predict?t=1;robot=x", StatusCode::BAD_REQUEST),
+        ("/api/intercept?t=1", StatusCode::BAD_REQUEST),
+        ("/api/intercept?robot=ghost", StatusCode::NOT_FOUND),
+        ("/nowhere", StatusCode::NOT_FOUND),
+    ] {
+        let (s, body) = get(app(live.clone()), uri).await;
+        assert_eq!(s, want, "{uri}: {body}");
+        assert!(json(&body)["error"].is_string(), "{uri}: {body}");
+    }
+}
+
+#[tokio::test]
+async fn metrics_count_rejections_and_the_page_is_served() {
+    let (live, _) = live_with_ball();
+    let (s, text) = get(app(live.clone()), "/metrics").await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(text.contains("rf_observations_accepted_total 30"), "{text}");
+    assert!(
+        text.contains(r#"rf_messages_rejected_total{kind="observation",reason="not_json"} 1"#),
+        "{text}"
+    );
+    assert!(
+        text.contains(r#"rf_robot_obs_rate_hz{robot="miro1"}"#),
+        "{text}"
+    );
+    assert!(
+        text.contains("rf_obs_to_state_latency_seconds_count 0"),
+        "{text}"
+    );
+    let (s, page) = get(app(live), "/").await;
+    assert_eq!(s, StatusCode::OK);
+    assert!(page.contains("<html"), "{page}");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn the_stream_pushes_states_and_a_stuck_client_only_loses_frames() -> anyhow::Result<()> {
+    use futures_util::StreamExt;
+    let (live, _) = live_with_ball();
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let addr = listener.local_addr()?;
+    let server = tokio::spawn(axum::serve(listener, app(live.clone())).into_future());
+    let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/api/stream")).await?;
+    // The first frame is the current view, sent on connect.
+    let first = ws.next().await.expect("a frame")?;
+    let v: serde_json::Value = serde_json::from_str(first.to_text()?)?;
+    assert!(v["ball"]["position_m"].is_array());
+    while live.stats.ws_clients.load(Relaxed) == 0 {
+        tokio::task::yield_now().await;
+    }
+    let (_, state) = live.take_state().expect("a state");
+    live.broadcast(state);
+    let next = ws.next().await.expect("a frame")?;
+    assert!(next.to_text()?.contains("\"ball\""));
+    assert_eq!(live.stats.states_published.load(Relaxed), 1);
+    // Publish far more than the client reads (64 KiB frames overflow the socket buffers
+    // while the client is not reading); publishing never waits for it.
+    let frames = 2000;
+    let big: Arc<str> = Arc::from(format!("{{\"pad\":\"{}\"}}", "x".repeat(65_536)));
+    for _ in 0..frames {
+        live.broadcast(big.clone());
+    }
+    live.broadcast(Arc::from("{\"last\":true}"));
+    let mut got = 0;
+    loop {
+        let m = ws.next().await.expect("open stream")?;
+        if m.to_text()?.contains("\"last\"") {
+            break;
+        }
+        got += 1;
+    }
+    assert!(got < frames, "a slow client cannot get every frame ({got})");
+    let dropped = live.stats.ws_frames_dropped.load(Relaxed);
+    assert!(
+        dropped > 0 && got + dropped as usize >= frames,
+        "got {got}, dropped {dropped}"
+    );
+    server.abort();
+    Ok(())
+}

@@ -1,0 +1,292 @@
+//! The live server's shared state: the engine behind a lock, the clock, the counters, the
+//! live stream and the match log. Zenoh callbacks, the publisher task and HTTP handlers all
+//! go through here; nothing in it blocks on the network.
+
+use crate::engine::{Engine, RobotView};
+use crate::metrics::ShellStats;
+use crate::query::{BallQuery, QueryError, QueryReply};
+use proto::{BallState, KeySpace, Pitch, Stamp};
+use serde::Serialize;
+use std::fmt::Debug;
+use std::sync::atomic::Ordering::Relaxed;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tokio::sync::{Notify, broadcast};
+
+/// Where the shell reads time. Live: the system clock. Replay: a clock running through a
+/// recorded match, possibly faster than real time.
+pub trait Clock: Send + Sync + Debug {
+    fn now(&self) -> Stamp;
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SystemClock;
+
+impl Clock for SystemClock {
+    fn now(&self) -> Stamp {
+        let ns = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map(|d| d.as_nanos())
+            .unwrap_or(0);
+        Stamp(u64::try_from(ns).unwrap_or(u64::MAX))
+    }
+}
+
+/// Recorded time, advancing `speed` times as fast as the wall clock from `origin`.
+#[derive(Debug, Clone, Copy)]
+pub struct ScaledClock {
+    wall_origin: Instant,
+    origin: Stamp,
+    speed: f64,
+}
+
+impl ScaledClock {
+    pub fn new(origin: Stamp, speed: f64) -> Self {
+        ScaledClock {
+            wall_origin: Instant::now(),
+            origin,
+            speed,
+        }
+    }
+
+    /// The wall-clock instant at which this clock reads `at`.
+    pub fn instant_of(&self, at: Stamp) -> Instant {
+        let dt_s = (at.secs_since(self.origin) / self.speed).max(0.0);
+        self.wall_origin + Duration::from_secs_f64(dt_s)
+    }
+}
+
+impl Clock for ScaledClock {
+    fn now(&self) -> Stamp {
+        self.origin
+            .offset_secs(self.wall_origin.elapsed().as_secs_f64() * self.speed)
+    }
+}
+
+/// What a match log is told (the recorder maps kinds to channels and schemas).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LogKind {
+    Observation,
+    Status,
+    BallState,
+}
+
+/// A match log that never blocks the caller.
+pub trait MatchLog: Send + Sync + Debug {
+    fn log(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]);
+}
+
+/// The body of `GET /api/state` and of each live-stream frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct StateView<'a> {
+    /// Server clock when the view was taken.
+    pub stamp: Stamp,
+    pub ball: Option<BallState>,
+    pub robots: Vec<RobotView>,
+    pub pitch: &'a Pitch,
+}
+
+#[derive(Debug)]
+struct Inner {
+    engine: Engine,
+    /// Arrival stamps of observations applied since the last published state.
+    unpublished: Vec<Stamp>,
+}
+
+/// Rejections are logged at most this often per reason (they are always counted).
+const REJECT_LOG_EVERY: Duration = Duration::from_secs(5);
+
+#[derive(Debug)]
+pub struct Live {
+    inner: Mutex<Inner>,
+    pub keys: KeySpace,
+    pub clock: Arc<dyn Clock>,
+    pub stats: ShellStats,
+    /// One frame per published state; slow readers lose the oldest frames.
+    pub stream: broadcast::Sender<Arc<str>>,
+    /// Signalled after each accepted observation when states are published on update.
+    pub updated: Notify,
+    pub publish_on_update: bool,
+    log: Option<Arc<dyn MatchLog>>,
+    last_reject_log: Mutex<Option<Instant>>,
+}
+
+impl Live {
+    pub fn new(
+        engine: Engine,
+        keys: KeySpace,
+        clock: Arc<dyn Clock>,
+        stream_buffer: usize,
+        publish_on_update: bool,
+        log: Option<Arc<dyn MatchLog>>,
+    ) -> Self {
+        let (stream, _) = broadcast::channel(stream_buffer.max(1));
+        Live {
+            inner: Mutex::new(Inner {
+                engine,
+                unpublished: Vec::new(),
+            }),
+            keys,
+            clock,
+            stats: ShellStats::default(),
+            stream,
+            updated: Notify::new(),
+            publish_on_update,
+            log,
+            last_reject_log: Mutex::new(None),
+        }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Inner> {
+        // A panic elsewhere must not take the server down with it: the engine is still usable.
+        self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Runs `f` on the engine under the lock.
+    pub fn with_engine<T>(&self, f: impl FnOnce(&Engine) -> T) -> T {
+        f(&self.lock().engine)
+    }
+
+    fn log_rejection(&self, what: &str, key: &str, e: &dyn std::fmt::Display) {
+        let mut last = self
+            .last_reject_log
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if last.is_none_or(|t| t.elapsed() >= REJECT_LOG_EVERY) {
+            *last = Some(Instant::now());
+            tracing::warn!(
+                "rejected {what} on {key}: {e} (further rejections are counted in /metrics)"
+            );
+        }
+    }
+
+    /// An observation payload arrived on `key`.
+    pub fn on_observation(&self, key: &str, payload: &[u8]) {
+        let robot = self.keys.robot_id_of(key);
+        let mut inner = self.lock();
+        let now = self.clock.now();
+        let result = inner.engine.observation(robot, payload, now);
+        let decoded = !matches!(result, Err(crate::engine::Rejection::Decode(_)));
+        if decoded && let Some(log) = &self.log {
+            log.log(LogKind::Observation, key, now, payload);
+        }
+        match result {
+            Ok(_) => {
+                inner.unpublished.push(now);
+                drop(inner);
+                if self.publish_on_update {
+                    self.updated.notify_one();
+                }
+            }
+            Err(e) => {
+                drop(inner);
+                self.log_rejection("observation", key, &e);
+            }
+        }
+    }
+
+    /// A status payload arrived on `key`.
+    pub fn on_status(&self, key: &str, payload: &[u8]) {
+        let robot = self.keys.robot_id_of(key);
+        let mut inner = self.lock();
+        let now = self.clock.now();
+        let result = inner.engine.status(robot, payload, now);
+        let decoded = !matches!(result, Err(crate::engine::Rejection::Decode(_)));
+        if decoded && let Some(log) = &self.log {
+            log.log(LogKind::Status, key, now, payload);
+        }
+        drop(inner);
+        if let Err(e) = result {
+            self.log_rejection("status", key, &e);
+        }
+    }
+
+    /// A robot liveliness token under `key` appeared or went away.
+    pub fn on_liveliness(&self, key: &str, alive: bool) {
+        let Some(robot) = self.keys.robot_id_of(key) else {
+            return;
+        };
+        let now = self.clock.now();
+        let result = self.lock().engine.liveliness(robot, alive, now);
+        match result {
+            Ok(()) => tracing::info!(
+                "robot {robot} is {}",
+                if alive { "online" } else { "offline" }
+            ),
+            Err(e) => self.log_rejection("liveliness", key, &e),
+        }
+    }
+
+    /// Takes the state to publish now: its wire payload and the live-stream frame.
+    /// `None` until a ball has been seen.
+    pub fn take_state(&self) -> Option<(Vec<u8>, Arc<str>)> {
+        let mut inner = self.lock();
+        let now = self.clock.now();
+        let state = inner.engine.ball_state(now)?;
+        let payload = proto::encode(&state);
+        if let Some(log) = &self.log {
+            log.log(LogKind::BallState, &self.keys.ball_state(), now, &payload);
+        }
+        let arrivals = std::mem::take(&mut inner.unpublished);
+        let view = StateView {
+            stamp: now,
+            ball: Some(state),
+            robots: inner.engine.robots(now),
+            pitch: inner.engine.pitch(),
+        };
+        let frame: Arc<str> = serde_json::to_string(&view).unwrap_or_default().into();
+        drop(inner);
+        if let Ok(mut h) = self.stats.obs_to_state_s.lock() {
+            for a in arrivals {
+                h.observe(now.secs_since(a));
+            }
+        }
+        self.stats.states_published.fetch_add(1, Relaxed);
+        Some((payload, frame))
+    }
+
+    /// Sends a frame to the live stream (never waits for readers).
+    pub fn broadcast(&self, frame: Arc<str>) {
+        // No receivers is not an error: nobody is watching.
+        let _ = self.stream.send(frame);
+    }
+
+    /// The current view, as served by `GET /api/state`.
+    pub fn view_json(&self) -> String {
+        let inner = self.lock();
+        let now = self.clock.now();
+        let view = StateView {
+            stamp: now,
+            ball: inner.engine.ball_state(now),
+            robots: inner.engine.robots(now),
+            pitch: inner.engine.pitch(),
+        };
+        serde_json::to_string(&view).unwrap_or_default()
+    }
+
+    pub fn robots_json(&self) -> String {
+        let inner = self.lock();
+        serde_json::to_string(&inner.engine.robots(self.clock.now())).unwrap_or_default()
+    }
+
+    /// Answers a query now, counting the outcome.
+    pub fn query(&self, q: &BallQuery) -> Result<QueryReply, QueryError> {
+        let r = {
+            let inner = self.lock();
+            inner.engine.query(q, self.clock.now())
+        };
+        let counter = if r.is_ok() {
+            &self.stats.queries_answered
+        } else {
+            &self.stats.queries_failed
+        };
+        counter.fetch_add(1, Relaxed);
+        r
+    }
+
+    /// Prometheus text exposition.
+    pub fn metrics_text(&self) -> String {
+        let inner = self.lock();
+        crate::metrics::render(&inner.engine, &self.stats, self.clock.now())
+    }
+}

@@ -1,0 +1,281 @@
+//! The server's counters and the Prometheus text exposition of them.
+
+use crate::engine::Engine;
+use proto::Stamp;
+use std::fmt::Write;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// Upper bounds of the latency histogram buckets (seconds).
+pub const LATENCY_BUCKETS_S: [f64; 12] = [
+    1e-4, 2.5e-4, 5e-4, 1e-3, 2.5e-3, 5e-3, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0,
+];
+
+/// A fixed-bucket histogram, Prometheus style (cumulative on output).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Histogram {
+    counts: [u64; LATENCY_BUCKETS_S.len()],
+    count: u64,
+    sum: f64,
+}
+
+impl Histogram {
+    pub fn observe(&mut self, v: f64) {
+        if !v.is_finite() {
+            return;
+        }
+        if let Some(i) = LATENCY_BUCKETS_S.iter().position(|b| v <= *b) {
+            self.counts[i] += 1;
+        }
+        self.count += 1;
+        self.sum += v;
+    }
+
+    pub fn count(&self) -> u64 {
+        self.count
+    }
+
+    /// The smallest bucket bound below which at least `q` of the samples fall.
+    pub fn quantile_bound(&self, q: f64) -> Option<f64> {
+        let need = (q * self.count as f64).ceil() as u64;
+        let mut seen = 0;
+        for (c, b) in self.counts.iter().zip(LATENCY_BUCKETS_S) {
+            seen += c;
+            if seen >= need && self.count > 0 {
+                return Some(b);
+            }
+        }
+        None
+    }
+
+    fn render(&self, out: &mut String, name: &str) {
+        let mut cum = 0;
+        for (c, b) in self.counts.iter().zip(LATENCY_BUCKETS_S) {
+            cum += c;
+            let _ = writeln!(out, "{name}_bucket{{le=\"{b}\"}} {cum}");
+        }
+        let _ = writeln!(out, "{name}_bucket{{le=\"+Inf\"}} {}", self.count);
+        let _ = writeln!(out, "{name}_sum {}", self.sum);
+        let _ = writeln!(out, "{name}_count {}", self.count);
+    }
+}
+
+/// What the I/O shell counts (the engine counts what it decides).
+#[derive(Debug, Default)]
+pub struct ShellStats {
+    pub states_published: AtomicU64,
+    pub ws_clients: AtomicU64,
+    pub ws_frames_sent: AtomicU64,
+    /// Frames a slow WebSocket client never got because newer ones replaced them.
+    pub ws_frames_dropped: AtomicU64,
+    pub queries_answered: AtomicU64,
+    pub queries_failed: AtomicU64,
+    pub recorded: AtomicU64,
+    pub record_dropped: AtomicU64,
+    /// Seconds from an observation's arrival to the publication of a state that includes it.
+    pub obs_to_state_s: Mutex<Histogram>,
+}
+
+impl ShellStats {
+    pub fn latency(&self) -> Histogram {
+        self.obs_to_state_s
+            .lock()
+            .map(|h| h.clone())
+            .unwrap_or_default()
+    }
+}
+
+fn family(out: &mut String, name: &str, kind: &str, help: &str) {
+    let _ = writeln!(out, "# HELP {name} {help}");
+    let _ = writeln!(out, "# TYPE {name} {kind}");
+}
+
+fn escape(label: &str) -> String {
+    label
+        .replace('\\', "\\\\")
+        .replace('"', "\\\"")
+        .replace('\n', "\\n")
+}
+
+/// The Prometheus text exposition of the engine's and the shell's counters at `now`.
+pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
+    let mut out = String::with_capacity(4096);
+    let c = engine.counters();
+    let core = engine.fusion().counters();
+    let simple: [(&str, &str, &str, u64); 11] = [
+        (
+            "rf_observations_accepted_total",
+            "counter",
+            "Observations used by the fusion.",
+            c.observations_accepted,
+        ),
+        (
+            "rf_statuses_accepted_total",
+            "counter",
+            "Robot status messages accepted.",
+            c.statuses_accepted,
+        ),
+        (
+            "rf_observations_reordered_total",
+            "counter",
+            "Observations that arrived out of capture order and were slotted in.",
+            core.reordered,
+        ),
+        (
+            "rf_observations_outside_walls_total",
+            "counter",
+            "Accepted observations beyond a wall, ignored by the tracker.",
+            core.outside_walls,
+        ),
+        (
+            "rf_states_published_total",
+            "counter",
+            "Ball states published.",
+            shell.states_published.load(Relaxed),
+        ),
+        (
+            "rf_ws_clients",
+            "gauge",
+            "Connected WebSocket stream clients.",
+            shell.ws_clients.load(Relaxed),
+        ),
+        (
+            "rf_ws_frames_sent_total",
+            "counter",
+            "Frames sent to WebSocket clients.",
+            shell.ws_frames_sent.load(Relaxed),
+        ),
+        (
+            "rf_ws_frames_dropped_total",
+            "counter",
+            "Frames skipped for slow WebSocket clients.",
+            shell.ws_frames_dropped.load(Relaxed),
+        ),
+        (
+            "rf_queries_answered_total",
+            "counter",
+            "Prediction and intercept queries answered.",
+            shell.queries_answered.load(Relaxed),
+        ),
+        (
+            "rf_queries_failed_total",
+            "counter",
+            "Queries answered with an error.",
+            shell.queries_failed.load(Relaxed),
+        ),
+        (
+            "rf_record_messages_total",
+            "counter",
+            "Messages written to the match log.",
+            shell.recorded.load(Relaxed),
+        ),
+    ];
+    for (name, kind, help, v) in simple {
+        family(&mut out, name, kind, help);
+        let _ = writeln!(out, "{name} {v}");
+    }
+    family(
+        &mut out,
+        "rf_record_dropped_total",
+        "counter",
+        "Messages the match log could not keep up with.",
+    );
+    let _ = writeln!(
+        out,
+        "rf_record_dropped_total {}",
+        shell.record_dropped.load(Relaxed)
+    );
+
+    family(
+        &mut out,
+        "rf_messages_rejected_total",
+        "counter",
+        "Inbound messages rejected, by message kind and reason.",
+    );
+    for ((kind, reason), n) in &c.rejected {
+        let _ = writeln!(
+            out,
+            "rf_messages_rejected_total{{kind=\"{kind}\",reason=\"{reason}\"}} {n}"
+        );
+    }
+
+    let robots = engine.robots(now);
+    let per_robot: [(&str, &str, &str); 5] = [
+        (
+            "rf_robot_online",
+            "gauge",
+            "1 while the robot's liveliness token is present.",
+        ),
+        (
+            "rf_robot_obs_rate_hz",
+            "gauge",
+            "Observations per second accepted from the robot.",
+        ),
+        (
+            "rf_robot_observations_rejected_total",
+            "counter",
+            "Observations from the robot that were rejected.",
+        ),
+        (
+            "rf_robot_covariance_scale",
+            "gauge",
+            "Factor applied to the covariance the robot reports (1 = honest).",
+        ),
+        (
+            "rf_robot_outlier_rate",
+            "gauge",
+            "Share of the robot's reports the others did not confirm.",
+        ),
+    ];
+    for (k, (name, kind, help)) in per_robot.iter().enumerate() {
+        family(&mut out, name, kind, help);
+        for r in &robots {
+            let v = match k {
+                0 => Some(f64::from(u8::from(r.online))),
+                1 => Some(r.obs_rate_hz),
+                2 => Some(r.observations_rejected as f64),
+                3 => r.covariance_scale,
+                _ => r.outlier_rate,
+            };
+            if let Some(v) = v {
+                let _ = writeln!(out, "{name}{{robot=\"{}\"}} {v}", escape(&r.robot_id));
+            }
+        }
+    }
+
+    let name = "rf_obs_to_state_latency_seconds";
+    family(
+        &mut out,
+        name,
+        "histogram",
+        "From an observation's arrival to the publication of a state that includes it.",
+    );
+    shell.latency().render(&mut out, name);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histogram_buckets_and_quantiles() {
+        let mut h = Histogram::default();
+        for v in [5e-5, 3e-4, 3e-4, 2e-3, f64::NAN, 5.0] {
+            h.observe(v);
+        }
+        assert_eq!(h.count(), 5);
+        assert_eq!(h.quantile_bound(0.2), Some(1e-4));
+        assert_eq!(h.quantile_bound(0.6), Some(5e-4));
+        assert_eq!(h.quantile_bound(1.0), None, "5 s is beyond the last bucket");
+        let mut s = String::new();
+        h.render(&mut s, "x");
+        assert!(s.contains("x_bucket{le=\"0.0005\"} 3"), "{s}");
+        assert!(s.contains("x_bucket{le=\"+Inf\"} 5"), "{s}");
+    }
+
+    #[test]
+    fn labels_are_escaped() {
+        assert_eq!(escape("a\"b\\c"), "a\\\"b\\\\c");
+    }
+}

@@ -1,0 +1,167 @@
+//! The live server: Zenoh subscribers, publisher, queryable and liveliness around the shared
+//! state, the HTTP server, and the loop that publishes the ball state.
+
+use crate::engine::{Engine, EngineConfig};
+use crate::live::{Clock, Live, MatchLog};
+use crate::net::NetConfig;
+use crate::query;
+use anyhow::{Context, Result};
+use proto::KeySpace;
+use std::future::Future;
+use std::sync::Arc;
+use std::time::Duration;
+use zenoh::Wait;
+use zenoh::sample::SampleKind;
+
+/// Everything a serving process needs to know.
+#[derive(Debug, Clone)]
+pub struct ServeConfig {
+    pub server_id: String,
+    pub prefix: String,
+    pub net: NetConfig,
+    /// States published per second on `{prefix}/ball/state` and the live stream.
+    pub state_rate_hz: f64,
+    /// Also publish right after accepted observations (coalesced), for the lowest latency.
+    pub publish_on_update: bool,
+    /// Frames a live-stream client may fall behind before it skips.
+    pub stream_buffer: usize,
+    pub engine: EngineConfig,
+}
+
+impl Default for ServeConfig {
+    fn default() -> Self {
+        ServeConfig {
+            server_id: "server-1".into(),
+            prefix: proto::DEFAULT_PREFIX.into(),
+            net: NetConfig::listening("tcp/127.0.0.1:7447"),
+            state_rate_hz: 30.0,
+            publish_on_update: false,
+            stream_buffer: 8,
+            engine: EngineConfig::default(),
+        }
+    }
+}
+
+/// A running server's handle on its shared state (tests and the demo look through it).
+pub type Shared = Arc<Live>;
+
+/// Builds the shared state for `cfg`.
+pub fn shared(
+    cfg: &ServeConfig,
+    clock: Arc<dyn Clock>,
+    log: Option<Arc<dyn MatchLog>>,
+) -> Result<Shared> {
+    let keys = KeySpace::new(&cfg.prefix).context("bad key prefix")?;
+    Ok(Arc::new(Live::new(
+        Engine::new(cfg.engine.clone()),
+        keys,
+        clock,
+        cfg.stream_buffer,
+        cfg.publish_on_update,
+        log,
+    )))
+}
+
+/// Serves until `shutdown` resolves: Zenoh in and out on `cfg.net`, HTTP on `http`.
+pub async fn serve(
+    cfg: ServeConfig,
+    live: Shared,
+    http: tokio::net::TcpListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<()> {
+    anyhow::ensure!(
+        cfg.state_rate_hz.is_finite() && cfg.state_rate_hz > 0.0,
+        "state rate must be positive, got {}",
+        cfg.state_rate_hz
+    );
+    let session = cfg.net.open().await.context("opening the Zenoh session")?;
+    let keys = live.keys.clone();
+
+    let l = live.clone();
+    let _obs = session
+        .declare_subscriber(keys.all_obs())
+        .callback(move |s| l.on_observation(s.key_expr().as_str(), &s.payload().to_bytes()))
+        .await
+        .map_err(|e| anyhow::anyhow!("subscribing to observations: {e}"))?;
+    let l = live.clone();
+    let _status = session
+        .declare_subscriber(keys.all_status())
+        .callback(move |s| l.on_status(s.key_expr().as_str(), &s.payload().to_bytes()))
+        .await
+        .map_err(|e| anyhow::anyhow!("subscribing to statuses: {e}"))?;
+    let l = live.clone();
+    let _alive = session
+        .liveliness()
+        .declare_subscriber(keys.all_robot_liveliness())
+        .history(true)
+        .callback(move |s| l.on_liveliness(s.key_expr().as_str(), s.kind() == SampleKind::Put))
+        .await
+        .map_err(|e| anyhow::anyhow!("subscribing to robot liveliness: {e}"))?;
+    let l = live.clone();
+    let _queryable = session
+        .declare_queryable(keys.ball_predict())
+        .callback(move |q| {
+            let parsed = query::parse(q.parameters().iter());
+            let result = parsed.and_then(|p| l.query(&p));
+            let sent = match result {
+                Ok(reply) => q.reply(q.key_expr().clone(), reply.to_json()).wait(),
+                Err(e) => q.reply_err(e.to_string()).wait(),
+            };
+            if let Err(e) = sent {
+                tracing::debug!("query reply failed: {e}");
+            }
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("declaring the predict queryable: {e}"))?;
+    let server_key = keys.server_liveliness(&cfg.server_id)?;
+    let _token = session
+        .liveliness()
+        .declare_token(server_key)
+        .await
+        .map_err(|e| anyhow::anyhow!("declaring the server token: {e}"))?;
+    let publisher = session
+        .declare_publisher(keys.ball_state())
+        .await
+        .map_err(|e| anyhow::anyhow!("declaring the state publisher: {e}"))?;
+
+    let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
+    let app = crate::http::app(live.clone());
+    let mut http_stop = stop_rx.clone();
+    let http_task = tokio::spawn(async move {
+        axum::serve(http, app)
+            .with_graceful_shutdown(async move {
+                let _ = http_stop.wait_for(|s| *s).await;
+            })
+            .await
+    });
+    tokio::spawn(async move {
+        shutdown.await;
+        let _ = stop_tx.send(true);
+    });
+
+    let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / cfg.state_rate_hz));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tokio::select! {
+            _ = tick.tick() => {}
+            _ = live.updated.notified(), if live.publish_on_update => {}
+            _ = stop_rx.wait_for(|s| *s) => break,
+        }
+        if let Some((payload, frame)) = live.take_state() {
+            if let Err(e) = publisher.put(payload).await {
+                tracing::warn!("publishing the ball state failed: {e}");
+            }
+            live.broadcast(frame);
+        }
+    }
+    match http_task.await {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => tracing::warn!("HTTP server stopped with an error: {e}"),
+        Err(e) => tracing::warn!("HTTP server task failed: {e}"),
+    }
+    session
+        .close()
+        .await
+        .map_err(|e| anyhow::anyhow!("closing the Zenoh session: {e}"))?;
+    Ok(())
+}

@@ -1,0 +1,235 @@
+//! Simulated MiRos on the network: each robot of a simulated match gets its own Zenoh
+//! session and liveliness token and publishes its observations when they would arrive,
+//! and its status at a few hertz, in real time. The demo runs them as tasks; tests run them
+//! as separate processes.
+
+use crate::live::{Clock, SystemClock};
+use crate::net::NetConfig;
+use anyhow::{Context, Result};
+use proto::{HeadJoints, KeySpace, Observation, RobotStatus, Stamp};
+use sim::{RobotTrack, SimConfig, SimRun};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::sync::watch;
+
+#[derive(Debug, Clone)]
+pub struct SimRobotsConfig {
+    pub scenario: String,
+    pub seed: u64,
+    /// Robots to publish for; empty = every observer of the scenario.
+    pub robots: Vec<String>,
+    /// Overrides the scenario's length.
+    pub duration_s: Option<f64>,
+    /// Run t = 0 at this stamp (shared by every process of one match).
+    pub start: Stamp,
+    /// After the match, play the next seed, and so on, until stopped.
+    pub repeat: bool,
+    pub status_rate_hz: f64,
+    pub prefix: String,
+    pub net: NetConfig,
+}
+
+/// Runs the match at `start` (deterministic: every process computes the same one).
+pub fn simulate(
+    scenario: &str,
+    seed: u64,
+    start: Stamp,
+    duration_s: Option<f64>,
+) -> Result<SimRun> {
+    let cfg = SimConfig {
+        start,
+        duration_s,
+        ..SimConfig::default()
+    };
+    sim::run_scenario(scenario, seed, &cfg).with_context(|| format!("simulating {scenario}"))
+}
+
+/// The robots a config publishes for, in the run's order.
+pub fn chosen_robots(run: &SimRun, wanted: &[String]) -> Result<Vec<String>> {
+    let observers: Vec<String> = run
+        .robots
+        .iter()
+        .filter(|r| r.observer)
+        .map(|r| r.id.clone())
+        .collect();
+    if wanted.is_empty() {
+        return Ok(observers);
+    }
+    for w in wanted {
+        anyhow::ensure!(
+            observers.contains(w),
+            "scenario {} has no observing robot {w:?} (it has {})",
+            run.scenario,
+            observers.join(", ")
+        );
+    }
+    Ok(wanted.to_vec())
+}
+
+fn status_of(track: &RobotTrack, t_s: f64, stamp: Stamp, fps: f64) -> RobotStatus {
+    RobotStatus {
+        version: proto::VERSION,
+        robot_id: track.id.clone(),
+        stamp,
+        pose: track.pose_at(t_s),
+        pose_covariance: [4e-4, 0.0, 0.0, 0.0, 4e-4, 0.0, 0.0, 0.0, 1e-3],
+        head: HeadJoints::default(),
+        fps,
+        timings: Vec::new(),
+        footprints: Vec::new(),
+    }
+}
+
+/// Wall-clock instant of a stamp, on the system clock.
+fn instant_of(at: Stamp, now_stamp: Stamp, now: Instant) -> Instant {
+    let dt_s = at.secs_since(now_stamp);
+    if dt_s <= 0.0 {
+        now
+    } else {
+        now + Duration::from_secs_f64(dt_s)
+    }
+}
+
+/// One robot's share of a run: its observations by arrival and its track.
+#[derive(Debug)]
+struct RobotPlan {
+    id: String,
+    deliveries: Vec<(Stamp, Observation)>,
+    track: RobotTrack,
+}
+
+fn plans(run: &SimRun, ids: &[String]) -> Vec<RobotPlan> {
+    ids.iter()
+        .filter_map(|id| {
+            let track = run.robots.iter().find(|r| &r.id == id)?.clone();
+            let deliveries = run
+                .deliveries
+                .iter()
+                .filter(|d| &d.obs.robot_id == id)
+                .map(|d| (d.arrival, d.obs.clone()))
+                .collect();
+            Some(RobotPlan {
+                id: id.clone(),
+                deliveries,
+                track,
+            })
+        })
+        .collect()
+}
+
+/// Publishes one robot's plan in real time until it ends or `stop` turns true.
+async fn play_robot(
+    session: &zenoh::Session,
+    keys: &KeySpace,
+    plan: RobotPlan,
+    run_start: Stamp,
+    status_rate_hz: f64,
+    stop: &mut watch::Receiver<bool>,
+) -> Result<u64> {
+    let obs_pub = session
+        .declare_publisher(keys.robot_obs(&plan.id)?)
+        .await
+        .map_err(|e| anyhow::anyhow!("obs publisher: {e}"))?;
+    let status_pub = session
+        .declare_publisher(keys.robot_status(&plan.id)?)
+        .await
+        .map_err(|e| anyhow::anyhow!("status publisher: {e}"))?;
+    let clock = SystemClock;
+    let status_dt_s = 1.0 / status_rate_hz.max(0.1);
+    let end = plan.deliveries.last().map(|(a, _)| *a).unwrap_or(run_start);
+    let mut next_status = run_start;
+    let mut sent = 0;
+    let mut obs = plan.deliveries.into_iter().peekable();
+    loop {
+        let next_obs = obs.peek().map(|(a, _)| *a);
+        let (due, is_status) = match next_obs {
+            Some(a) if a <= next_status => (a, false),
+            _ if next_status <= end => (next_status, true),
+            _ => break,
+        };
+        let now_stamp = clock.now();
+        let wake = instant_of(due, now_stamp, Instant::now());
+        tokio::select! {
+            _ = tokio::time::sleep_until(wake.into()) => {}
+            _ = stop.wait_for(|s| *s) => break,
+        }
+        if is_status {
+            let t_s = due.secs_since(run_start);
+            let s = status_of(&plan.track, t_s, due, sim::model::FRAME_RATE_HZ);
+            let _ = status_pub.put(proto::encode(&s)).await;
+            next_status = next_status.offset_secs(status_dt_s);
+        } else if let Some((_, o)) = obs.next() {
+            if obs_pub.put(proto::encode(&o)).await.is_ok() {
+                sent += 1;
+            }
+        }
+    }
+    Ok(sent)
+}
+
+/// Runs the simulated robots until the match ends (or every match, with `repeat`, until
+/// `stop`). Returns the observations published.
+pub async fn run(cfg: SimRobotsConfig, stop: watch::Receiver<bool>) -> Result<u64> {
+    let keys = KeySpace::new(&cfg.prefix)?;
+    let mut start = cfg.start;
+    let mut seed = cfg.seed;
+    let mut total = 0;
+    // One session and liveliness token per robot, kept across matches.
+    let first = simulate(&cfg.scenario, seed, start, cfg.duration_s)?;
+    let ids = chosen_robots(&first, &cfg.robots)?;
+    let mut sessions = Vec::new();
+    for id in &ids {
+        let session = cfg
+            .net
+            .open()
+            .await
+            .context("opening a robot's Zenoh session")?;
+        let token = session
+            .liveliness()
+            .declare_token(keys.robot_liveliness(id)?)
+            .await
+            .map_err(|e| anyhow::anyhow!("robot token: {e}"))?;
+        sessions.push((session, token));
+    }
+    let mut run = Arc::new(first);
+    loop {
+        let mut tasks = tokio::task::JoinSet::new();
+        for (plan, (session, _)) in plans(&run, &ids).into_iter().zip(&sessions) {
+            let (session, keys, mut stop) = (session.clone(), keys.clone(), stop.clone());
+            let rate = cfg.status_rate_hz;
+            tasks.spawn(
+                async move { play_robot(&session, &keys, plan, start, rate, &mut stop).await },
+            );
+        }
+        // Simulate the next match while this one plays.
+        let next_start = start.offset_secs(run.duration_s);
+        let next = if cfg.repeat {
+            let (scenario, d) = (cfg.scenario.clone(), cfg.duration_s);
+            Some(tokio::task::spawn_blocking(move || {
+                simulate(&scenario, seed + 1, next_start, d)
+            }))
+        } else {
+            None
+        };
+        while let Some(r) = tasks.join_next().await {
+            total += r.context("robot task")??;
+        }
+        if *stop.borrow() {
+            break;
+        }
+        match next {
+            Some(n) => {
+                run = Arc::new(n.await.context("simulation task")??);
+                start = next_start;
+                seed += 1;
+                tracing::info!("next match: {} seed {seed}", cfg.scenario);
+            }
+            None => break,
+        }
+    }
+    for (session, token) in sessions {
+        let _ = token.undeclare().await;
+        let _ = session.close().await;
+    }
+    Ok(total)
+}
