@@ -9,7 +9,8 @@
 //! → the same run, bit for bit; there are no clock reads, time is simulated.
 //!
 //! `run_scenario` produces a whole `SimRun`; `World` steps the same world incrementally for
-//! a live caller. This crate never depends on `fusion-server`.
+//! a live caller. [`score`] scores a method's estimates against a run's ground truth.
+//! This crate never depends on `fusion-server`.
 
 mod kicks;
 mod latency;
@@ -20,6 +21,7 @@ mod rng;
 mod robots;
 mod run;
 mod scenario;
+pub mod score;
 mod seed_scenarios;
 mod types;
 mod vec2;
