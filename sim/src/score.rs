@@ -50,7 +50,7 @@ pub fn tick_times_s(duration_s: f64) -> impl Iterator<Item = f64> {
 }
 
 /// Raw per-tick samples of one method on one or more runs; merged across seeds.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Samples {
     pub ticks: usize,
     pub ticks_possible: usize,
