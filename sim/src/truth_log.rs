@@ -287,6 +287,7 @@ fn decode<T: DeserializeOwned>(topic: &'static str, json: &[u8]) -> Result<T, Tr
 }
 
 impl TruthLogBuilder {
+    /// A builder that has seen no message yet.
     pub fn new() -> Self {
         Self::default()
     }
