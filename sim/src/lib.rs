@@ -9,7 +9,9 @@
 //! → the same run, bit for bit; there are no clock reads, time is simulated.
 //!
 //! `run_scenario` produces a whole `SimRun`; `World` steps the same world incrementally for
-//! a live caller. This crate never depends on `fusion-server`.
+//! a live caller. [`score`] scores a method's estimates against a run's ground truth;
+//! [`truth_log`] carries a run's ground truth through a match log and rebuilds the run.
+//! This crate never depends on `fusion-server`.
 
 mod kicks;
 mod latency;
@@ -20,7 +22,9 @@ mod rng;
 mod robots;
 mod run;
 mod scenario;
+pub mod score;
 mod seed_scenarios;
+pub mod truth_log;
 mod types;
 mod vec2;
 mod world;
@@ -29,6 +33,8 @@ mod world;
 mod observation_tests;
 #[cfg(test)]
 mod scenario_tests;
+#[cfg(test)]
+mod truth_log_tests;
 
 pub use latency::LatencyProfile;
 pub use run::{SimRun, run_scenario};

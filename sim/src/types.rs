@@ -2,10 +2,13 @@
 
 use crate::vec2::{lerp, lerp_angle};
 use proto::{Observation, Pose2, Stamp, WallSide};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 /// How the ball is moving. A kicked ball first skids (sliding friction, large deceleration)
 /// until it rolls without slipping; only then does the small rolling resistance apply.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
 pub enum BallPhase {
     Rest,
     Slide,
@@ -13,7 +16,8 @@ pub enum BallPhase {
 }
 
 /// The ball's true state at one instant (`t_s` seconds after the run's start).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
 pub struct TruthSample {
     pub t_s: f64,
     pub position_m: [f64; 2],
@@ -23,7 +27,8 @@ pub struct TruthSample {
 
 /// The world's physical parameters for one run, drawn from the seed. An estimator that
 /// calibrates online can be scored against these.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
 pub struct TrueParams {
     /// Constant part of the rolling deceleration.
     pub rolling_decel_mps2: f64,
@@ -36,7 +41,8 @@ pub struct TrueParams {
 }
 
 /// Something that happened to the ball.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum BallEvent {
     /// The ball was given `velocity_mps`. `robot_id` is "script" for kicks no robot made;
     /// `kicker_distance_m` is the kicker's centre-to-ball-centre distance (0 for "script").
@@ -71,7 +77,8 @@ impl BallEvent {
 }
 
 /// What an observation really was, known only to the world (the filter sees `obs` alone).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
 pub enum ObsKind {
     Ball,
     /// Another robot's white top mistaken for the ball.
@@ -89,7 +96,8 @@ pub struct Delivery {
 }
 
 /// One robot's true path, sampled at the truth rate.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
 pub struct RobotTrack {
     pub id: String,
     pub observer: bool,
@@ -129,7 +137,8 @@ impl RobotTrack {
 }
 
 /// Counters of what the observers experienced, for tests and the evaluation's context.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
 pub struct SimStats {
     /// Camera images taken by observers (two per capture instant).
     pub camera_frames: u64,

@@ -1,9 +1,8 @@
 //! The evaluation: every scenario over many seeds, every method on the same deliveries.
 
-use crate::methods::TickRecord;
-use crate::methods::{Method, TICK_S, fusion_config, oracle_config, run_baseline, run_fusion};
-use crate::metrics::{Samples, rms, score};
+use crate::methods::{Method, fusion_config, oracle_config, run_baseline, run_fusion};
 use crate::report::{Report, Row, check_targets};
+use sim::score::{Samples, TickRecord, rms, score, tick_count};
 use sim::{Delivery, ObsKind, SimConfig, SimRun};
 use std::collections::BTreeMap;
 use std::sync::Mutex;
@@ -23,7 +22,7 @@ pub fn is_team(scenario: &str) -> bool {
 
 /// Scores every method on one simulated run.
 pub fn evaluate_run(run: &SimRun) -> RunResult {
-    let n_ticks = (run.duration_s / TICK_S).floor() as usize;
+    let n_ticks = tick_count(run.duration_s);
     let has_phantom = run.phantom.is_some();
     let no_phantom = |d: &Delivery| d.kind != ObsKind::Phantom;
     // Each method is also run without the phantom reports, to measure the phantom's pull.

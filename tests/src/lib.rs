@@ -4,7 +4,6 @@
 pub mod baseline;
 pub mod eval;
 pub mod methods;
-pub mod metrics;
 pub mod plot;
 pub mod plots;
 pub mod report;

@@ -5,29 +5,10 @@ use crate::baseline::SeedBaseline;
 use fusion_server::core::motion::{Bounds, MotionModel, fly};
 use fusion_server::core::predict::stop;
 use fusion_server::core::{Fusion, FusionConfig};
+use sim::score::{BOUNCE_LOOKAHEAD_S, HORIZONS_S, TickRecord, tick_times_s};
 use sim::{Delivery, SimRun};
 
-/// Prediction horizons at which every method is scored (seconds).
-pub const HORIZONS_S: [f64; 7] = [0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0];
-/// Spacing of the evaluation ticks.
-pub const TICK_S: f64 = 0.05;
-/// How far ahead a predicted wall bounce is looked for.
-pub const BOUNCE_LOOKAHEAD_S: f64 = 3.0;
-
-/// One method's answer at one tick.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TickRecord {
-    pub t_s: f64,
-    pub position: [f64; 2],
-    pub velocity: [f64; 2],
-    /// Predicted positions at `t_s + HORIZONS_S[k]`.
-    pub predicted: Vec<[f64; 2]>,
-    /// Predicted stop: absolute time and point.
-    pub stop: Option<(f64, [f64; 2])>,
-    /// Predicted first wall bounce, absolute time.
-    pub first_bounce_t_s: Option<f64>,
-}
-
+/// A method the evaluation compares.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Method {
     Fusion,
@@ -162,9 +143,7 @@ fn drive<S>(
 ) -> Vec<TickRecord> {
     let mut out = Vec::new();
     let mut next = 0;
-    let n_ticks = (run.duration_s / TICK_S).floor() as usize;
-    for k in 1..=n_ticks {
-        let t_s = k as f64 * TICK_S;
+    for t_s in tick_times_s(run.duration_s) {
         let at = run.stamp_of(t_s);
         while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {
             if keep(d) {

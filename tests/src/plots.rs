@@ -2,11 +2,11 @@
 //! team-rally trajectory, true against predicted, with bounce markers.
 
 use crate::eval::{RunResult, is_team};
-use crate::methods::{HORIZONS_S, Method, fusion_config};
-use crate::metrics::{Samples, quantile};
+use crate::methods::{Method, fusion_config};
 use crate::plot::{Chart, Marker, PALETTE, RectOutline, Series, Style, write_png};
 use fusion_server::core::Fusion;
 use fusion_server::core::motion::{Bounds, fly};
+use sim::score::{HORIZONS_S, Samples, quantile};
 use sim::{BallEvent, SimRun};
 use std::path::Path;
 

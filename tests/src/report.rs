@@ -1,27 +1,8 @@
 //! The evaluation report: per scenario and method, the pooled metrics as JSON and as a
 //! markdown table, and the targets checked against them.
 
-use crate::methods::HORIZONS_S;
-use crate::metrics::{Samples, mean, quantile, rms};
 use serde::Serialize;
-use std::collections::BTreeMap;
-
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct Spread {
-    pub median: Option<f64>,
-    pub p90: Option<f64>,
-    pub n: usize,
-}
-
-impl Spread {
-    fn of(v: &[f64]) -> Self {
-        Spread {
-            median: quantile(v, 0.5),
-            p90: quantile(v, 0.9),
-            n: v.len(),
-        }
-    }
-}
+use sim::score::{Samples, Summary};
 
 /// One row of the report: a method on a scenario, pooled over seeds.
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -29,78 +10,18 @@ pub struct Row {
     pub scenario: String,
     pub method: String,
     pub seeds: usize,
-    /// Share of evaluation ticks at which the method had an estimate.
-    pub coverage: f64,
-    pub position_score: Option<f64>,
-    pub position_rmse_m: Option<f64>,
-    pub position_median_m: Option<f64>,
-    pub velocity_rmse_mps: Option<f64>,
-    pub velocity_score: Option<f64>,
-    pub direction_error_deg: Option<f64>,
-    pub distance_rel_error: Option<f64>,
-    pub horizon_error_m: BTreeMap<String, Spread>,
-    pub horizon_rel_error: BTreeMap<String, Spread>,
-    /// Prediction errors over windows that contain a true wall bounce.
-    pub bounce_horizon_error_m: BTreeMap<String, Spread>,
-    pub stop_error_m: Spread,
-    pub bounce_time_error_s: Spread,
-    pub bounce_miss_rate: Option<f64>,
-    /// Largest displacement of the estimate towards the phantom ball (phantom scenario).
-    pub phantom_pull_max_m: Option<f64>,
-    pub phantom_pull_p99_m: Option<f64>,
-}
-
-/// "0.1", "0.25", "1.0": horizon keys as the report names them.
-pub fn horizon_key(h: f64) -> String {
-    if h.fract() == 0.0 {
-        format!("{h:.1}")
-    } else {
-        format!("{h}")
-    }
+    #[serde(flatten)]
+    pub summary: Summary,
 }
 
 impl Row {
     pub fn new(scenario: &str, method: &str, seeds: usize, s: &Samples) -> Self {
-        let per_h = |v: &Vec<Vec<f64>>| -> BTreeMap<String, Spread> {
-            HORIZONS_S
-                .iter()
-                .zip(v)
-                .map(|(h, x)| (horizon_key(*h), Spread::of(x)))
-                .collect()
-        };
-        let bounce_scored = s.bounce_time_err_s.len() + s.bounce_missed;
         Row {
             scenario: scenario.to_string(),
             method: method.to_string(),
             seeds,
-            coverage: if s.ticks_possible == 0 {
-                0.0
-            } else {
-                s.ticks as f64 / s.ticks_possible as f64
-            },
-            position_score: mean(&s.scores),
-            position_rmse_m: rms(&s.position_err_m),
-            position_median_m: quantile(&s.position_err_m, 0.5),
-            velocity_rmse_mps: rms(&s.velocity_err_mps),
-            velocity_score: mean(&s.velocity_scores),
-            direction_error_deg: mean(&s.direction_err_deg),
-            distance_rel_error: mean(&s.distance_rel_err),
-            horizon_error_m: per_h(&s.horizon_err_m),
-            horizon_rel_error: per_h(&s.horizon_rel_err),
-            bounce_horizon_error_m: per_h(&s.bounce_horizon_err_m),
-            stop_error_m: Spread::of(&s.stop_err_m),
-            bounce_time_error_s: Spread::of(&s.bounce_time_err_s),
-            bounce_miss_rate: (bounce_scored > 0)
-                .then(|| s.bounce_missed as f64 / bounce_scored as f64),
-            phantom_pull_max_m: s.phantom_pull_m.iter().copied().reduce(f64::max),
-            phantom_pull_p99_m: quantile(&s.phantom_pull_m, 0.99),
+            summary: Summary::of(s),
         }
-    }
-
-    pub fn horizon_median(&self, h: f64) -> Option<f64> {
-        self.horizon_error_m
-            .get(&horizon_key(h))
-            .and_then(|s| s.median)
     }
 }
 
@@ -134,24 +55,25 @@ pub fn markdown_table(rows: &[Row]) -> String {
         "| scenario | method | score % | RMSE cm | vel RMSE cm/s | err@0.5 s cm | err@1 s cm (p90) | rel@1 s % | err@1 s over bounce cm | stop cm | bounce time ms | phantom pull cm |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
-        let h1 = r.horizon_error_m.get("1.0");
+        let m = &r.summary;
+        let h1 = m.horizon_error_m.get("1.0");
         out.push_str(&format!(
             "| {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {} | {} |\n",
             r.scenario,
             r.method,
-            pct(r.position_score),
-            cm(r.position_rmse_m),
-            cm(r.velocity_rmse_mps),
-            cm(r.horizon_median(0.5)),
+            pct(m.position_score),
+            cm(m.position_rmse_m),
+            cm(m.velocity_rmse_mps),
+            cm(m.horizon_median(0.5)),
             cm(h1.and_then(|s| s.median)),
             cm(h1.and_then(|s| s.p90)),
-            pct(r.horizon_rel_error.get("1.0").and_then(|s| s.median)),
-            cm(r.bounce_horizon_error_m.get("1.0").and_then(|s| s.median)),
-            cm(r.stop_error_m.median),
-            r.bounce_time_error_s
+            pct(m.horizon_rel_error.get("1.0").and_then(|s| s.median)),
+            cm(m.bounce_horizon_error_m.get("1.0").and_then(|s| s.median)),
+            cm(m.stop_error_m.median),
+            m.bounce_time_error_s
                 .median
                 .map_or("–".into(), |x| format!("{:.0}", x * 1000.0)),
-            cm(r.phantom_pull_max_m),
+            cm(m.phantom_pull_max_m),
         ));
     }
     out
@@ -163,7 +85,11 @@ pub fn check_targets(
     seed_scenarios: &[&str],
     team_scenarios: &[&str],
 ) -> Vec<TargetCheck> {
-    let find = |s: &str, m: &str| rows.iter().find(|r| r.scenario == s && r.method == m);
+    let find = |s: &str, m: &str| {
+        rows.iter()
+            .find(|r| r.scenario == s && r.method == m)
+            .map(|r| &r.summary)
+    };
     let mut out = Vec::new();
     let mut push =
         |scenario: &str, target: &str, value: Option<f64>, limit: f64, at_least: bool| {

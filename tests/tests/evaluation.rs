@@ -2,6 +2,7 @@
 //! are measured by `evaluate` over 20 seeds and reported in docs/accuracy.md): a regression
 //! in the fusion core fails here.
 
+use sim::score::Summary;
 use system_tests::eval::{evaluate, report};
 use system_tests::report::Row;
 
@@ -13,9 +14,10 @@ fn rows(scenarios: &[&str]) -> Vec<Row> {
     report(scenarios, SEEDS, &results).scenarios
 }
 
-fn row<'a>(rows: &'a [Row], scenario: &str, method: &str) -> &'a Row {
+fn row<'a>(rows: &'a [Row], scenario: &str, method: &str) -> &'a Summary {
     rows.iter()
         .find(|r| r.scenario == scenario && r.method == method)
+        .map(|r| &r.summary)
         .unwrap_or_else(|| panic!("no row for {scenario} / {method}"))
 }
 

@@ -3,7 +3,8 @@
 
 use clap::Parser;
 use fusion_server::core::Fusion;
-use system_tests::methods::{TICK_S, fusion_config};
+use sim::score::TICK_S;
+use system_tests::methods::fusion_config;
 
 #[derive(Debug, Parser)]
 struct Args {
