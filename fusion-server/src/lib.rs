@@ -16,5 +16,6 @@ pub mod live;
 pub mod metrics;
 pub mod net;
 pub mod query;
+pub mod scoring;
 pub mod serve;
 pub mod simrobots;

@@ -2,10 +2,9 @@
 //! arrival order and asked for their estimate at the same evaluation ticks.
 
 use crate::baseline::SeedBaseline;
-use fusion_server::core::motion::{Bounds, MotionModel, fly};
-use fusion_server::core::predict::stop;
-use fusion_server::core::{Fusion, FusionConfig};
-use sim::score::{BOUNCE_LOOKAHEAD_S, HORIZONS_S, TickRecord, tick_times_s};
+use fusion_server::core::FusionConfig;
+pub use fusion_server::scoring::{drive, fusion_config, model_record, run_fusion};
+use sim::score::{HORIZONS_S, TickRecord};
 use sim::{Delivery, SimRun};
 
 /// A method the evaluation compares.
@@ -45,43 +44,6 @@ pub fn oracle_config(run: &SimRun) -> FusionConfig {
     cfg
 }
 
-pub fn fusion_config(run: &SimRun) -> FusionConfig {
-    FusionConfig {
-        pitch: run.pitch.clone(),
-        ..FusionConfig::default()
-    }
-}
-
-/// Runs the fusion core (with `cfg`) over the deliveries that `keep` accepts.
-pub fn run_fusion(
-    run: &SimRun,
-    cfg: FusionConfig,
-    keep: impl Fn(&Delivery) -> bool,
-) -> Vec<TickRecord> {
-    let bounds = Bounds::from_pitch(&cfg.pitch);
-    let base_model = cfg.tracker.motion;
-    let mut fusion = Fusion::new(cfg);
-    drive(
-        run,
-        keep,
-        &mut fusion,
-        |f, d| {
-            f.ingest(&d.obs, d.arrival);
-        },
-        |f, t_s| {
-            let filter = f.filter_at(run.stamp_of(t_s))?;
-            let model = filter.model(&base_model);
-            Some(model_record(
-                t_s,
-                filter.position(),
-                filter.velocity(),
-                &model,
-                &bounds,
-            ))
-        },
-    )
-}
-
 /// Runs the seed's method over the deliveries that `keep` accepts.
 pub fn run_baseline(run: &SimRun, keep: impl Fn(&Delivery) -> bool) -> Vec<TickRecord> {
     let mut baseline = SeedBaseline::default();
@@ -105,55 +67,4 @@ pub fn run_baseline(run: &SimRun, keep: impl Fn(&Delivery) -> bool) -> Vec<TickR
             })
         },
     )
-}
-
-fn model_record(
-    t_s: f64,
-    p: [f64; 2],
-    v: [f64; 2],
-    model: &MotionModel,
-    bounds: &Bounds,
-) -> TickRecord {
-    let predicted = HORIZONS_S
-        .iter()
-        .map(|h| fly(p, v, *h, model, bounds).position)
-        .collect();
-    let stop = stop(p, v, model, bounds).map(|s| (t_s + s.t_s, s.position_m));
-    let first_bounce_t_s = fly(p, v, BOUNCE_LOOKAHEAD_S, model, bounds)
-        .hits()
-        .next()
-        .map(|h| t_s + h.t_s);
-    TickRecord {
-        t_s,
-        position: p,
-        velocity: v,
-        predicted,
-        stop,
-        first_bounce_t_s,
-    }
-}
-
-/// Feeds deliveries in arrival order and queries at every tick.
-fn drive<S>(
-    run: &SimRun,
-    keep: impl Fn(&Delivery) -> bool,
-    state: &mut S,
-    ingest: impl Fn(&mut S, &Delivery),
-    query: impl Fn(&mut S, f64) -> Option<TickRecord>,
-) -> Vec<TickRecord> {
-    let mut out = Vec::new();
-    let mut next = 0;
-    for t_s in tick_times_s(run.duration_s) {
-        let at = run.stamp_of(t_s);
-        while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {
-            if keep(d) {
-                ingest(state, d);
-            }
-            next += 1;
-        }
-        if let Some(r) = query(state, t_s) {
-            out.push(r);
-        }
-    }
-    out
 }
