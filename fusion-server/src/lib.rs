@@ -6,16 +6,20 @@
 //!
 //! Around it, [`engine`] (also pure) decodes, validates and counts what arrives, and the
 //! I/O shell serves it: [`serve`] (Zenoh and HTTP, through [`live`] and [`http`]),
-//! [`net`] (Zenoh session settings), [`metrics`] and [`query`].
+//! [`net`] (Zenoh session settings), [`metrics`] and [`query`]; [`record`] writes match
+//! logs (MCAP files Foxglove opens) and [`mcap_read`] reads them back for replay,
+//! including logs cut short by a crash.
 
 pub mod config;
 pub mod core;
 pub mod engine;
 pub mod http;
 pub mod live;
+pub mod mcap_read;
 pub mod metrics;
 pub mod net;
 pub mod query;
+pub mod record;
 pub mod scoring;
 pub mod serve;
 pub mod simrobots;

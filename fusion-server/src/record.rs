@@ -1,0 +1,297 @@
+//! Match logs: the messages the server receives and sends, written as MCAP files that
+//! Foxglove opens and the replay reads back ([`crate::mcap_read`]).
+//!
+//! - [`McapRecorder`]: the synchronous writer. Channels are created the first time a topic
+//!   is seen (message encoding `json`, schema encoding `jsonschema`), files rotate by size
+//!   or by log-time span, and [`McapRecorder::flush_if_due`] ends the open chunk and hands
+//!   it to the operating system, so a killed process loses at most one flush interval.
+//! - [`RecorderHandle`]: an [`McapRecorder`] on its own thread behind a bounded queue;
+//!   sending never blocks, and a full queue drops (and counts) the record.
+//!
+//! Records are written in the order they are given: nothing is sorted by log time.
+
+mod file_name;
+mod handle;
+mod log_file;
+mod recorder;
+#[cfg(test)]
+pub(crate) mod test_support;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use proto::Stamp;
+
+pub use handle::{RecorderHandle, RecorderStats};
+pub use recorder::McapRecorder;
+
+/// The largest payload one record may carry. Larger records are refused, so that every
+/// file stays readable by [`crate::mcap_read`], which caps what it buffers.
+pub const MAX_PAYLOAD_BYTES: usize = 32 << 20;
+
+/// The largest [`RecorderConfig::chunk_size_bytes`] accepted, for the same reason.
+pub const MAX_CHUNK_SIZE_BYTES: u64 = 32 << 20;
+
+/// Message encoding of every channel.
+pub const MESSAGE_ENCODING: &str = "json";
+
+/// Schema encoding of every schema.
+pub const SCHEMA_ENCODING: &str = "jsonschema";
+
+/// Name of the metadata record at the start of every file.
+pub const METADATA_NAME: &str = "fusion-server";
+
+/// How chunks are compressed. Both are read by Foxglove and the `mcap` tools.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LogCompression {
+    /// Chunks stored as they are.
+    None,
+    /// Chunks compressed with zstd (default level). JSON shrinks several-fold.
+    Zstd,
+}
+
+/// Where and how match logs are written.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecorderConfig {
+    /// Directory of the log files; created when missing.
+    pub dir: PathBuf,
+    /// Start of every file name: `{file_prefix}-{UTC date-time}-{index:03}.mcap`. Must be
+    /// non-empty and hold no path separator.
+    pub file_prefix: String,
+    /// A new file is started before a record that finds the current one at or above this
+    /// size (on-disk bytes plus the uncompressed bytes of the open chunk).
+    pub max_bytes: Option<u64>,
+    /// A new file is started before a record whose log time is more than this many seconds
+    /// after the current file's first message.
+    pub max_duration_s: Option<f64>,
+    /// Seconds between flushes: the data a killed process can lose.
+    pub flush_interval_s: f64,
+    /// The open chunk is ended once its uncompressed messages reach this size.
+    pub chunk_size_bytes: u64,
+    /// Chunk compression.
+    pub compression: LogCompression,
+    /// Records the [`RecorderHandle`] queue holds before it drops new ones.
+    pub queue_capacity: usize,
+}
+
+impl RecorderConfig {
+    /// Default flush interval.
+    pub const DEFAULT_FLUSH_INTERVAL_S: f64 = 0.5;
+    /// Default chunk size (uncompressed).
+    pub const DEFAULT_CHUNK_SIZE_BYTES: u64 = 1 << 20;
+    /// Default queue capacity of a [`RecorderHandle`].
+    pub const DEFAULT_QUEUE_CAPACITY: usize = 1 << 16;
+
+    /// Logs in `dir` named `match-…`, no rotation, a flush every 0.5 s, 1 MiB zstd chunks
+    /// and a queue of 65 536 records.
+    pub fn new(dir: impl Into<PathBuf>) -> Self {
+        Self {
+            dir: dir.into(),
+            file_prefix: "match".to_owned(),
+            max_bytes: None,
+            max_duration_s: None,
+            flush_interval_s: Self::DEFAULT_FLUSH_INTERVAL_S,
+            chunk_size_bytes: Self::DEFAULT_CHUNK_SIZE_BYTES,
+            compression: LogCompression::Zstd,
+            queue_capacity: Self::DEFAULT_QUEUE_CAPACITY,
+        }
+    }
+
+    /// Checks every field; the first problem found is returned as [`RecordError::Config`].
+    pub fn validate(&self) -> Result<(), RecordError> {
+        let bad = |why: String| Err(RecordError::Config(why));
+        if self.file_prefix.is_empty()
+            || self.file_prefix.contains(['/', '\\'])
+            || self.file_prefix == "."
+            || self.file_prefix == ".."
+        {
+            return bad(format!(
+                "file prefix {:?} must be non-empty and hold no path separator",
+                self.file_prefix
+            ));
+        }
+        if self.max_bytes == Some(0) {
+            return bad("max_bytes must be positive".to_owned());
+        }
+        if let Some(s) = self.max_duration_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return bad(format!(
+                "max_duration_s must be positive and finite, not {s}"
+            ));
+        }
+        let flush_s = self.flush_interval_s;
+        if !(flush_s.is_finite() && flush_s > 0.0 && flush_s <= 86_400.0) {
+            return bad(format!(
+                "flush_interval_s must be in (0, 86400], not {flush_s}"
+            ));
+        }
+        if self.chunk_size_bytes == 0 || self.chunk_size_bytes > MAX_CHUNK_SIZE_BYTES {
+            return bad(format!(
+                "chunk_size_bytes must be in 1..={MAX_CHUNK_SIZE_BYTES}, not {}",
+                self.chunk_size_bytes
+            ));
+        }
+        if self.queue_capacity == 0 {
+            return bad("queue_capacity must be positive".to_owned());
+        }
+        Ok(())
+    }
+}
+
+/// A named JSON Schema, written once per file as an MCAP schema record. Shared between
+/// records as `Arc<Schema>`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Schema {
+    /// Schema name, e.g. `Observation`; one schema record per name and file.
+    pub name: String,
+    /// The JSON Schema document as UTF-8 JSON.
+    pub json: Vec<u8>,
+}
+
+impl Schema {
+    /// A schema from its name and JSON text.
+    pub fn new(name: impl Into<String>, json: impl Into<Vec<u8>>) -> Self {
+        Self {
+            name: name.into(),
+            json: json.into(),
+        }
+    }
+}
+
+/// The JSON Schemas of every wire message (`proto::schema::all()`), ready to attach to
+/// records.
+pub fn proto_schemas() -> Vec<Arc<Schema>> {
+    proto::schema::all()
+        .into_iter()
+        .map(|(name, schema)| Arc::new(Schema::new(name, proto::schema::to_pretty_json(&schema))))
+        .collect()
+}
+
+/// One message to log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Record {
+    /// Channel topic, e.g. the key expression the message travelled on.
+    pub topic: String,
+    /// Schema of `payload`. A topic keeps the schema (by name) of its first record.
+    pub schema: Arc<Schema>,
+    /// When the server received or produced the message.
+    pub log_time: Stamp,
+    /// When the message was published (for observations, their capture time).
+    pub publish_time: Stamp,
+    /// The message as JSON.
+    pub payload: Vec<u8>,
+}
+
+/// What a finished recording wrote.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct RecordSummary {
+    /// Every file opened, in the order written.
+    pub files: Vec<PathBuf>,
+    /// Messages written over all files.
+    pub messages: u64,
+}
+
+/// Why a recording step failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    /// The configuration is unusable.
+    #[error("recorder configuration: {0}")]
+    Config(String),
+    /// A file or directory operation failed.
+    #[error("{action} {path}: {source}")]
+    Io {
+        action: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The MCAP writer failed (usually an I/O error underneath).
+    #[error("writing MCAP file {path}: {source}")]
+    Mcap {
+        path: PathBuf,
+        #[source]
+        source: mcap::McapError,
+    },
+    /// A topic's channel was created with another schema.
+    #[error("topic {topic:?} is logged with schema {channel_schema:?}, not {record_schema:?}")]
+    SchemaMismatch {
+        topic: String,
+        channel_schema: String,
+        record_schema: String,
+    },
+    /// The payload exceeds [`MAX_PAYLOAD_BYTES`].
+    #[error("payload of {bytes} bytes on {topic:?} exceeds {MAX_PAYLOAD_BYTES} bytes")]
+    PayloadTooLarge { topic: String, bytes: usize },
+    /// The recorder thread could not be started.
+    #[error("starting the recorder thread: {0}")]
+    Spawn(#[source] std::io::Error),
+    /// The recorder thread panicked; its files may lack their summary.
+    #[error("the recorder thread panicked")]
+    ThreadPanicked,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_configuration_is_valid() {
+        let cfg = RecorderConfig::new("logs");
+        assert!(cfg.validate().is_ok());
+        assert_eq!(cfg.flush_interval_s, 0.5);
+        assert_eq!(cfg.queue_capacity, 65_536);
+    }
+
+    #[test]
+    fn unusable_configurations_are_refused() {
+        let base = RecorderConfig::new("logs");
+        let cases = [
+            RecorderConfig {
+                file_prefix: String::new(),
+                ..base.clone()
+            },
+            RecorderConfig {
+                file_prefix: "a/b".into(),
+                ..base.clone()
+            },
+            RecorderConfig {
+                max_bytes: Some(0),
+                ..base.clone()
+            },
+            RecorderConfig {
+                max_duration_s: Some(f64::NAN),
+                ..base.clone()
+            },
+            RecorderConfig {
+                flush_interval_s: 0.0,
+                ..base.clone()
+            },
+            RecorderConfig {
+                flush_interval_s: f64::INFINITY,
+                ..base.clone()
+            },
+            RecorderConfig {
+                chunk_size_bytes: MAX_CHUNK_SIZE_BYTES + 1,
+                ..base.clone()
+            },
+            RecorderConfig {
+                queue_capacity: 0,
+                ..base.clone()
+            },
+        ];
+        for cfg in cases {
+            assert!(
+                matches!(cfg.validate(), Err(RecordError::Config(_))),
+                "{cfg:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn proto_schemas_hold_every_message_as_json() {
+        let schemas = proto_schemas();
+        assert!(schemas.iter().any(|s| s.name == "Observation"));
+        for s in &schemas {
+            assert!(s.json.starts_with(b"{"), "{}", s.name);
+        }
+    }
+}

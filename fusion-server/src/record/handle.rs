@@ -1,0 +1,313 @@
+//! [`RecorderHandle`]: an [`McapRecorder`] on its own thread, fed through a bounded queue
+//! that never blocks the sender.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use proto::Stamp;
+
+use super::{McapRecorder, Record, RecordError, RecordSummary, RecorderConfig};
+
+/// Counters of a running recorder.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct RecorderStats {
+    /// Records written to a file.
+    pub written: u64,
+    /// Records dropped because the queue was full (or the writer thread had stopped).
+    pub dropped: u64,
+    /// Records the writer refused or failed to write.
+    pub failed: u64,
+    /// The file being written.
+    pub current_file: Option<PathBuf>,
+    /// The latest write or flush error, as text.
+    pub last_error: Option<String>,
+}
+
+/// What the sending side and the writer thread share.
+#[derive(Debug, Default)]
+struct Shared {
+    written: AtomicU64,
+    dropped: AtomicU64,
+    failed: AtomicU64,
+    current_file: Mutex<Option<PathBuf>>,
+    last_error: Mutex<Option<String>>,
+}
+
+impl Shared {
+    fn set_error(&self, e: &RecordError) {
+        *self
+            .last_error
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = Some(e.to_string());
+    }
+}
+
+/// A match-log writer thread. [`RecorderHandle::send`] queues a record without blocking;
+/// the thread writes records in queue order and flushes every
+/// [`RecorderConfig::flush_interval_s`], idle or not.
+///
+/// Dropping the handle closes the queue and waits for the thread to write what is queued
+/// and complete the file, ignoring errors; [`RecorderHandle::finish`] does the same and
+/// reports them.
+#[derive(Debug)]
+pub struct RecorderHandle {
+    tx: Option<SyncSender<Record>>,
+    thread: Option<JoinHandle<Result<RecordSummary, RecordError>>>,
+    shared: Arc<Shared>,
+}
+
+impl RecorderHandle {
+    /// Opens the first file (see [`McapRecorder::create`]) and starts the writer thread
+    /// with a queue of [`RecorderConfig::queue_capacity`] records.
+    pub fn spawn(cfg: RecorderConfig, start: Stamp) -> Result<Self, RecordError> {
+        let capacity = cfg.queue_capacity;
+        let recorder = McapRecorder::create(cfg, start)?;
+        let shared = Arc::new(Shared::default());
+        *shared
+            .current_file
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = recorder.current_file().map(Into::into);
+        let (tx, rx) = mpsc::sync_channel(capacity);
+        let thread_shared = Arc::clone(&shared);
+        let thread = std::thread::Builder::new()
+            .name("mcap-recorder".to_owned())
+            .spawn(move || run(recorder, rx, &thread_shared))
+            .map_err(RecordError::Spawn)?;
+        Ok(Self {
+            tx: Some(tx),
+            thread: Some(thread),
+            shared,
+        })
+    }
+
+    /// Queues `record` without blocking. Returns false, and counts the record as dropped,
+    /// when the queue is full or the writer has stopped.
+    pub fn send(&self, record: Record) -> bool {
+        let queued = match &self.tx {
+            Some(tx) => match tx.try_send(record) {
+                Ok(()) => true,
+                Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => false,
+            },
+            None => false,
+        };
+        if !queued {
+            self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        queued
+    }
+
+    /// The counters so far.
+    pub fn stats(&self) -> RecorderStats {
+        let s = &self.shared;
+        RecorderStats {
+            written: s.written.load(Ordering::Relaxed),
+            dropped: s.dropped.load(Ordering::Relaxed),
+            failed: s.failed.load(Ordering::Relaxed),
+            current_file: s
+                .current_file
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .clone(),
+            last_error: s
+                .last_error
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .clone(),
+        }
+    }
+
+    /// Closes the queue, waits until every queued record is written and the file is
+    /// complete, and reports what was written.
+    pub fn finish(mut self) -> Result<RecordSummary, RecordError> {
+        self.tx = None;
+        match self.thread.take() {
+            Some(thread) => thread.join().unwrap_or(Err(RecordError::ThreadPanicked)),
+            None => Err(RecordError::ThreadPanicked),
+        }
+    }
+}
+
+impl Drop for RecorderHandle {
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(thread) = self.thread.take() {
+            // Errors have nowhere to go here; `finish` reports them.
+            let _ = thread.join();
+        }
+    }
+}
+
+/// The writer thread: write what arrives, flush when due, finish when the queue closes.
+fn run(
+    mut recorder: McapRecorder,
+    rx: Receiver<Record>,
+    shared: &Shared,
+) -> Result<RecordSummary, RecordError> {
+    let file_key = |r: &McapRecorder| (r.files().len(), r.current_file().is_some());
+    let mut file_seen = file_key(&recorder);
+    loop {
+        match rx.recv_timeout(recorder.time_until_flush(Instant::now())) {
+            Ok(record) => match recorder.write(&record) {
+                Ok(()) => {
+                    shared.written.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(e) => {
+                    shared.failed.fetch_add(1, Ordering::Relaxed);
+                    shared.set_error(&e);
+                }
+            },
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        if let Err(e) = recorder.flush_if_due(Instant::now()) {
+            shared.set_error(&e);
+        }
+        if file_key(&recorder) != file_seen {
+            file_seen = file_key(&recorder);
+            *shared
+                .current_file
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner) = recorder.current_file().map(Into::into);
+        }
+    }
+    let summary = recorder.finish();
+    *shared
+        .current_file
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner) = None;
+    summary
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::mcap_read::{read_log, read_logs};
+    use crate::record::LogCompression;
+    use crate::record::test_support::*;
+
+    #[test]
+    fn queued_records_are_written_and_finish_returns_the_files() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let cfg = RecorderConfig {
+            max_bytes: Some(50_000),
+            ..config(dir.path(), LogCompression::Zstd)
+        };
+        let records = mixed_records(2_000);
+        let handle = RecorderHandle::spawn(cfg, Stamp(T0_NS)).expect("recorder thread");
+        let first = handle.stats().current_file.expect("current file");
+        for r in &records {
+            assert!(handle.send(r.clone()));
+        }
+        let summary = handle.finish().expect("finish");
+        assert_eq!(summary.messages, 2_000);
+        assert!(summary.files.len() > 1, "{:?}", summary.files);
+        assert_eq!(summary.files[0], first);
+        let read = read_logs(&summary.files).expect("read logs");
+        assert!(read.complete, "{:?}", read.problem);
+        assert_eq!(
+            read.messages,
+            records.iter().map(expected).collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn a_full_queue_drops_and_counts() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let cfg = RecorderConfig {
+            queue_capacity: 1,
+            ..config(dir.path(), LogCompression::Zstd)
+        };
+        let records = mixed_records(20_000);
+        let handle = RecorderHandle::spawn(cfg, Stamp(T0_NS)).expect("recorder thread");
+        let queued = records.iter().filter(|r| handle.send((*r).clone())).count() as u64;
+        let stats = handle.stats();
+        assert!(stats.dropped > 0, "{stats:?}");
+        assert_eq!(queued + stats.dropped, 20_000);
+        let summary = handle.finish().expect("finish");
+        assert_eq!(summary.messages, queued);
+        let read = read_logs(&summary.files).expect("read logs");
+        assert!(read.complete);
+        assert_eq!(read.messages.len() as u64, queued);
+        // What got through is in order.
+        let times: Vec<Stamp> = read.messages.iter().map(|m| m.log_time).collect();
+        assert!(times.windows(2).all(|w| w[0] < w[1]));
+    }
+
+    #[test]
+    fn an_idle_recorder_still_flushes_on_its_timer() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let cfg = RecorderConfig {
+            flush_interval_s: 0.02,
+            ..config(dir.path(), LogCompression::Zstd)
+        };
+        let records = mixed_records(30);
+        let handle = RecorderHandle::spawn(cfg, Stamp(T0_NS)).expect("recorder thread");
+        let path = handle.stats().current_file.expect("current file");
+        for r in &records {
+            assert!(handle.send(r.clone()));
+        }
+        // Nothing else is sent: only the timer can flush the open chunk.
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let read = loop {
+            let read = read_log(&path).expect("read log");
+            if read.messages.len() == records.len() || Instant::now() > deadline {
+                break read;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        assert!(!read.complete);
+        assert_eq!(
+            read.messages,
+            records.iter().map(expected).collect::<Vec<_>>()
+        );
+        let stats = handle.stats();
+        assert_eq!((stats.written, stats.dropped, stats.failed), (30, 0, 0));
+        assert_eq!(stats.last_error, None);
+        drop(handle);
+        assert!(read_log(&path).expect("read log").complete);
+    }
+
+    #[test]
+    fn write_errors_are_counted_not_fatal() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let handle = RecorderHandle::spawn(config(dir.path(), LogCompression::None), Stamp(T0_NS))
+            .expect("recorder thread");
+        let obs = proto_schema("Observation");
+        let status = proto_schema("RobotStatus");
+        handle.send(record("t", &obs, 1, b"{}".to_vec()));
+        handle.send(record("t", &status, 2, b"{}".to_vec()));
+        handle.send(record("t", &obs, 3, b"{}".to_vec()));
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while handle.stats().written + handle.stats().failed < 3 && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let stats = handle.stats();
+        assert_eq!((stats.written, stats.failed), (2, 1));
+        assert!(
+            stats
+                .last_error
+                .expect("error text")
+                .contains("RobotStatus")
+        );
+        assert_eq!(handle.finish().expect("finish").messages, 2);
+    }
+
+    #[test]
+    fn spawn_reports_a_bad_configuration() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let cfg = RecorderConfig {
+            queue_capacity: 0,
+            ..config(dir.path(), LogCompression::Zstd)
+        };
+        assert!(matches!(
+            RecorderHandle::spawn(cfg, Stamp(T0_NS)),
+            Err(RecordError::Config(_))
+        ));
+    }
+}
