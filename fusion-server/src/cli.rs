@@ -3,8 +3,10 @@
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fusion_server::config::FileConfig;
-use fusion_server::live::{Clock, SystemClock};
+use fusion_server::live::{Clock, MatchLog, SystemClock};
+use fusion_server::matchlog::McapLog;
 use fusion_server::net::NetConfig;
+use fusion_server::record::RecorderConfig;
 use fusion_server::serve::{self, ServeConfig};
 use fusion_server::simrobots::{self, SimRobotsConfig};
 use std::path::PathBuf;
@@ -31,6 +33,45 @@ pub enum Command {
     Demo(DemoArgs),
     /// Simulated MiRos only: publish a simulated match's observations in real time.
     SimRobots(SimRobotsArgs),
+    /// Simulate a match and write it as a match log (observations and ground truth).
+    Simulate(SimulateArgs),
+    /// Replay match logs: re-fuse offline (default), or serve them as if live.
+    Replay(ReplayArgs),
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct SimulateArgs {
+    #[arg(long, default_value = "match")]
+    pub scenario: String,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Match length, seconds (default: the scenario's).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Directory for the log file.
+    #[arg(long, default_value = "out/logs")]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct ReplayArgs {
+    /// Match log files, in order (rotated parts of one match follow each other).
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Directory for the re-fused log (offline mode); none is written without it.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Publish the recorded observations over Zenoh and serve HTTP as if live.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Playback speed for --realtime (2 = twice as fast).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    /// Print the replay summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub serve: ServeArgs,
 }
 
 /// Flags shared by every serving subcommand.
@@ -69,6 +110,15 @@ pub struct ServeArgs {
     /// Only accept these robots (comma-separated ids).
     #[arg(long, value_delimiter = ',')]
     pub roster: Vec<String>,
+    /// Record every observation, status and published state as MCAP match logs in DIR.
+    #[arg(long, value_name = "DIR")]
+    pub record: Option<PathBuf>,
+    /// Start a new log file after this many megabytes.
+    #[arg(long)]
+    pub record_max_mb: Option<f64>,
+    /// Start a new log file after this many minutes.
+    #[arg(long)]
+    pub record_max_min: Option<f64>,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -114,12 +164,21 @@ pub struct SimRobotsArgs {
     pub prefix: String,
 }
 
-/// Resolves the serving flags over the configuration file.
-pub fn serve_config(a: &ServeArgs) -> Result<ServeConfig> {
+/// Resolves the serving flags over the configuration file: the server's settings and,
+/// when recording, the match log's.
+pub fn serve_config(a: &ServeArgs) -> Result<(ServeConfig, Option<RecorderConfig>)> {
     let mut cfg = ServeConfig::default();
+    let mut rec = fusion_server::config::RecordFile::default();
     if let Some(path) = &a.config {
-        FileConfig::load(path)?.apply(&mut cfg)?;
+        let file = FileConfig::load(path)?;
+        file.apply(&mut cfg)?;
+        rec = file.record;
     }
+    if let Some(d) = &a.record {
+        rec.dir = Some(d.clone());
+    }
+    rec.max_mb = a.record_max_mb.or(rec.max_mb);
+    rec.max_minutes = a.record_max_min.or(rec.max_minutes);
     if !a.listen.is_empty() {
         cfg.net.listen = a.listen.clone();
     }
@@ -150,7 +209,47 @@ pub fn serve_config(a: &ServeArgs) -> Result<ServeConfig> {
         cfg.engine.roster = Some(a.roster.iter().cloned().collect());
     }
     cfg.net.check()?;
-    Ok(cfg)
+    let record = rec.dir.as_ref().map(|dir| {
+        let mut r = RecorderConfig::new(dir);
+        r.max_bytes = rec.max_mb.map(|mb| (mb * 1e6) as u64);
+        r.max_duration_s = rec.max_minutes.map(|m| m * 60.0);
+        if let Some(f) = rec.flush_interval_s {
+            r.flush_interval_s = f;
+        }
+        r
+    });
+    if let Some(r) = &record {
+        r.validate()?;
+    }
+    Ok((cfg, record))
+}
+
+/// Starts the match log, if one is configured.
+pub fn start_log(rec: Option<RecorderConfig>) -> Result<Option<Arc<McapLog>>> {
+    rec.map(|r| {
+        let dir = r.dir.clone();
+        McapLog::start(r, SystemClock.now())
+            .map(Arc::new)
+            .with_context(|| format!("starting the match log in {}", dir.display()))
+    })
+    .transpose()
+}
+
+/// Finishes the match log and says where it is.
+pub fn finish_log(log: Option<Arc<McapLog>>) -> Result<()> {
+    if let Some(log) = log
+        && let Some(summary) = log.finish()?
+    {
+        for f in &summary.files {
+            println!("match log: {}", f.display());
+        }
+        println!("{} messages recorded", summary.messages);
+    }
+    Ok(())
+}
+
+fn as_match_log(log: &Option<Arc<McapLog>>) -> Option<Arc<dyn MatchLog>> {
+    log.clone().map(|l| l as Arc<dyn MatchLog>)
 }
 
 /// Resolves on Ctrl-C or SIGTERM.
@@ -182,12 +281,15 @@ async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {
 }
 
 async fn serve_cmd(a: ServeArgs) -> Result<()> {
-    let cfg = serve_config(&a)?;
+    let (cfg, rec) = serve_config(&a)?;
     let http = bind_http(&a.http).await?;
-    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let log = start_log(rec)?;
+    let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
     println!("http://{}/", http.local_addr()?);
     println!("zenoh {}", cfg.net.listen.join(" "));
-    serve::serve(cfg, live, http, shutdown_signal()).await
+    let served = serve::serve(cfg, live, http, shutdown_signal()).await;
+    finish_log(log)?;
+    served
 }
 
 /// Prints a one-line summary every few seconds until `stop`.
@@ -222,14 +324,15 @@ async fn report_progress(live: serve::Shared, mut stop: tokio::sync::watch::Rece
 }
 
 async fn demo_cmd(a: DemoArgs) -> Result<()> {
-    let mut cfg = serve_config(&a.serve)?;
+    let (mut cfg, rec) = serve_config(&a.serve)?;
     if cfg.net.listen.is_empty() {
         cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
     }
     let endpoint = cfg.net.listen[0].clone();
     let http = bind_http(&a.serve.http).await?;
     let url = format!("http://{}/", http.local_addr()?);
-    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let log = start_log(rec)?;
+    let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let mut server_stop = stop_rx.clone();
     let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
@@ -267,6 +370,7 @@ async fn demo_cmd(a: DemoArgs) -> Result<()> {
     let _ = stop_tx.send(true);
     let published = sims.await.context("simulated robots")??;
     server.await.context("server")??;
+    finish_log(log)?;
     let fused = live.with_engine(|e| e.counters().observations_accepted);
     println!("Demo stopped: {published} observations published, {fused} fused.");
     Ok(())
@@ -305,5 +409,8 @@ pub async fn run(cli: Cli) -> Result<()> {
         Command::Serve(a) => serve_cmd(a).await,
         Command::Demo(a) => demo_cmd(a).await,
         Command::SimRobots(a) => sim_robots_cmd(a).await,
+        Command::Simulate(a) => crate::replay_cmd::simulate(a),
+        Command::Replay(a) if a.realtime => crate::replay_cmd::realtime(a).await,
+        Command::Replay(a) => crate::replay_cmd::offline(a),
     }
 }

@@ -74,6 +74,8 @@ pub enum LogKind {
 /// A match log that never blocks the caller.
 pub trait MatchLog: Send + Sync + Debug {
     fn log(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]);
+    /// Records written and records dropped so far.
+    fn counts(&self) -> (u64, u64);
 }
 
 /// The body of `GET /api/state` and of each live-stream frame.
@@ -286,6 +288,11 @@ impl Live {
 
     /// Prometheus text exposition.
     pub fn metrics_text(&self) -> String {
+        if let Some(log) = &self.log {
+            let (written, dropped) = log.counts();
+            self.stats.recorded.store(written, Relaxed);
+            self.stats.record_dropped.store(dropped, Relaxed);
+        }
         let inner = self.lock();
         crate::metrics::render(&inner.engine, &self.stats, self.clock.now())
     }

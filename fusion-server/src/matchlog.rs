@@ -1,0 +1,158 @@
+//! The server's match log: what the live shell hands over ([`MatchLog`]) turned into MCAP
+//! records on a background writer, with the proto JSON Schemas on every channel.
+
+use crate::live::{LogKind, MatchLog};
+use crate::record::{Record, RecordError, RecordSummary, RecorderConfig, RecorderHandle, Schema};
+use proto::Stamp;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// The schemas a match log uses, by name: the wire messages and the simulator's truth.
+pub fn schemas() -> HashMap<String, Arc<Schema>> {
+    let mut out: HashMap<String, Arc<Schema>> = crate::record::proto_schemas()
+        .into_iter()
+        .map(|s| (s.name.clone(), s))
+        .collect();
+    for (name, schema) in sim::truth_log::truth_schemas() {
+        let json = serde_json::to_vec_pretty(&schema).unwrap_or_default();
+        out.insert(name.to_string(), Arc::new(Schema::new(name, json)));
+    }
+    out
+}
+
+fn schema_name(kind: LogKind) -> &'static str {
+    match kind {
+        LogKind::Observation => "Observation",
+        LogKind::Status => "RobotStatus",
+        LogKind::BallState => "BallState",
+    }
+}
+
+/// A [`MatchLog`] writing MCAP files in the background. `finish` completes the last file.
+#[derive(Debug)]
+pub struct McapLog {
+    handle: Mutex<Option<RecorderHandle>>,
+    schemas: HashMap<String, Arc<Schema>>,
+}
+
+impl McapLog {
+    pub fn start(cfg: RecorderConfig, start: Stamp) -> Result<Self, RecordError> {
+        Ok(McapLog {
+            handle: Mutex::new(Some(RecorderHandle::spawn(cfg, start)?)),
+            schemas: schemas(),
+        })
+    }
+
+    /// Writes a record whose schema is one of [`schemas`]; false when dropped or unknown.
+    pub fn write(&self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) -> bool {
+        let Some(schema) = self.schemas.get(schema) else {
+            return false;
+        };
+        let guard = self.handle.lock().unwrap_or_else(|p| p.into_inner());
+        match guard.as_ref() {
+            Some(h) => h.send(Record {
+                topic: topic.to_string(),
+                schema: schema.clone(),
+                log_time,
+                publish_time: log_time,
+                payload: payload.to_vec(),
+            }),
+            None => false,
+        }
+    }
+
+    /// Finishes the log (summary and footer written); later writes are dropped.
+    pub fn finish(&self) -> Result<Option<RecordSummary>, RecordError> {
+        let handle = self.handle.lock().unwrap_or_else(|p| p.into_inner()).take();
+        handle.map(RecorderHandle::finish).transpose()
+    }
+}
+
+impl MatchLog for McapLog {
+    fn log(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]) {
+        self.write(topic, schema_name(kind), at, payload);
+    }
+
+    fn counts(&self) -> (u64, u64) {
+        let guard = self.handle.lock().unwrap_or_else(|p| p.into_inner());
+        guard
+            .as_ref()
+            .map(|h| {
+                let s = h.stats();
+                (s.written, s.dropped)
+            })
+            .unwrap_or_default()
+    }
+}
+
+/// A [`crate::replay::ReplaySink`] writing straight into a recorder (offline tools).
+#[derive(Debug)]
+pub struct RecorderSink {
+    pub recorder: crate::record::McapRecorder,
+    schemas: HashMap<String, Arc<Schema>>,
+    /// The first write error; later writes are skipped.
+    pub error: Option<RecordError>,
+}
+
+impl RecorderSink {
+    pub fn create(cfg: RecorderConfig, start: Stamp) -> Result<Self, RecordError> {
+        Ok(RecorderSink {
+            recorder: crate::record::McapRecorder::create(cfg, start)?,
+            schemas: schemas(),
+            error: None,
+        })
+    }
+
+    pub fn finish(self) -> Result<RecordSummary, RecordError> {
+        match self.error {
+            Some(e) => Err(e),
+            None => self.recorder.finish(),
+        }
+    }
+}
+
+impl crate::replay::ReplaySink for RecorderSink {
+    fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) {
+        if self.error.is_some() {
+            return;
+        }
+        let schema = match self.schemas.get(schema) {
+            Some(s) => s.clone(),
+            None => Arc::new(Schema::new(schema, b"{}".to_vec())),
+        };
+        let r = Record {
+            topic: topic.to_string(),
+            schema,
+            log_time,
+            publish_time: log_time,
+            payload: payload.to_vec(),
+        };
+        if let Err(e) = self.recorder.write(&r) {
+            self.error = Some(e);
+        }
+    }
+}
+
+/// Writes a simulated match as a match log: every observation on its robot's key at the
+/// time it reaches the server, and the simulator's ground truth.
+pub fn write_simulated(
+    run: &sim::SimRun,
+    keys: &proto::KeySpace,
+    sink: &mut dyn crate::replay::ReplaySink,
+) -> Result<usize, proto::KeyError> {
+    let truth = sim::truth_log::truth_messages(run);
+    let mut out: Vec<(Stamp, String, &str, Vec<u8>)> = Vec::with_capacity(truth.len());
+    for m in truth {
+        out.push((m.log_time, m.topic.to_string(), m.schema_name, m.json));
+    }
+    for d in &run.deliveries {
+        let key = keys.robot_obs(&d.obs.robot_id)?;
+        out.push((d.arrival, key, "Observation", proto::encode(&d.obs)));
+    }
+    // Stable: truth before observations at equal times, each in its own order.
+    out.sort_by_key(|m| m.0);
+    for (at, topic, schema, payload) in &out {
+        sink.write(topic, schema, *at, payload);
+    }
+    Ok(out.len())
+}

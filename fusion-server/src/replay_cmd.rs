@@ -1,0 +1,282 @@
+//! `simulate` and `replay`: match logs written from the simulator, re-fused offline, or
+//! played back over Zenoh and HTTP as if live.
+
+use crate::cli::{ReplayArgs, SimulateArgs, serve_config, shutdown_signal};
+use anyhow::{Context, Result};
+use fusion_server::live::ScaledClock;
+use fusion_server::matchlog::{RecorderSink, write_simulated};
+use fusion_server::mcap_read::{LogMessage, read_logs};
+use fusion_server::net::NetConfig;
+use fusion_server::record::RecorderConfig;
+use fusion_server::replay::{ReplayOptions, ReplayReport, replay};
+use fusion_server::serve;
+use proto::{KeySpace, Stamp};
+use std::collections::BTreeSet;
+use std::io::{IsTerminal, Write};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A one-line progress bar on a terminal; quarter marks otherwise.
+fn progress_bar(label: &'static str) -> impl FnMut(usize, usize) {
+    let tty = std::io::stderr().is_terminal();
+    let mut last_quarter = usize::MAX;
+    move |done, total| {
+        let total = total.max(1);
+        let pct = done * 100 / total;
+        if tty {
+            let filled = pct * 30 / 100;
+            eprint!(
+                "\r{label} [{}{}] {pct:3}% ({done}/{total})",
+                "#".repeat(filled),
+                " ".repeat(30 - filled)
+            );
+            if done >= total {
+                eprintln!();
+            }
+            let _ = std::io::stderr().flush();
+        } else if pct / 25 != last_quarter {
+            last_quarter = pct / 25;
+            eprintln!("{label}: {pct}% ({done}/{total})");
+        }
+    }
+}
+
+pub fn simulate(a: SimulateArgs) -> Result<()> {
+    let run = fusion_server::simrobots::simulate(
+        &a.scenario,
+        a.seed,
+        sim::SimConfig::default().start,
+        a.duration_s,
+    )?;
+    let mut cfg = RecorderConfig::new(&a.out);
+    cfg.file_prefix = format!("sim-{}-{}", a.scenario, a.seed);
+    let mut sink = RecorderSink::create(cfg, run.start)?;
+    let n = write_simulated(&run, &KeySpace::default(), &mut sink)?;
+    let summary = sink.finish()?;
+    for f in &summary.files {
+        println!("{}", f.display());
+    }
+    eprintln!(
+        "{} s of `{}` (seed {}): {} observations from {} robots, {n} messages",
+        run.duration_s,
+        run.scenario,
+        run.seed,
+        run.deliveries.len(),
+        run.observer_ids().len()
+    );
+    Ok(())
+}
+
+fn read(files: &[std::path::PathBuf]) -> Result<Vec<LogMessage>> {
+    let log = read_logs(files)?;
+    if !log.complete {
+        eprintln!(
+            "warning: log incomplete ({}); replaying the {} messages before the damage",
+            log.problem.as_deref().unwrap_or("no footer"),
+            log.messages.len()
+        );
+    }
+    Ok(log.messages)
+}
+
+fn print_report(r: &ReplayReport, wall_s: f64) {
+    println!("messages            {}", r.messages);
+    println!(
+        "observations        {} ({} accepted)",
+        r.observations, r.observations_accepted
+    );
+    for ((kind, reason), n) in &r.rejected {
+        println!("  rejected {kind:<11} {reason:<20} {n}");
+    }
+    println!("statuses            {}", r.statuses);
+    println!("states recorded     {}", r.states_recorded);
+    if r.states_recorded > 0 {
+        println!(
+            "states identical    {} of {}",
+            r.states_identical, r.states_recorded
+        );
+    }
+    if let Some((at, was, now)) = &r.first_difference {
+        println!(
+            "first difference at {}:\n  recorded {was}\n  replayed {now}",
+            at.0
+        );
+    }
+    println!("states written      {}", r.states_written);
+    println!(
+        "match time          {:.1} s, replayed in {wall_s:.2} s ({:.0}x real time)",
+        r.span_s,
+        r.span_s / wall_s.max(1e-9)
+    );
+    if let Some(acc) = &r.accuracy {
+        let f = |v: Option<f64>, scale: f64, unit: &str| {
+            v.map(|x| format!("{:.1} {unit}", x * scale))
+                .unwrap_or_else(|| "-".into())
+        };
+        let spread = |s: &sim::score::Spread, scale: f64, unit: &str| {
+            format!(
+                "median {} / p90 {}",
+                f(s.median, scale, unit),
+                f(s.p90, scale, unit)
+            )
+        };
+        println!("accuracy against the log's ground truth (the evaluation's figures):");
+        println!(
+            "  coverage            {}",
+            f(Some(acc.coverage), 100.0, "%")
+        );
+        println!(
+            "  position score      {}",
+            f(acc.position_score, 100.0, "%")
+        );
+        println!(
+            "  position RMSE       {}",
+            f(acc.position_rmse_m, 100.0, "cm")
+        );
+        println!(
+            "  position median     {}",
+            f(acc.position_median_m, 100.0, "cm")
+        );
+        println!(
+            "  velocity RMSE       {}",
+            f(acc.velocity_rmse_mps, 100.0, "cm/s")
+        );
+        println!(
+            "  direction error     {}",
+            f(acc.direction_error_deg, 1.0, "deg")
+        );
+        for (h, s) in &acc.horizon_error_m {
+            println!("  error at {h:>4} s     {}", spread(s, 100.0, "cm"));
+        }
+        println!(
+            "  stop point error    {}",
+            spread(&acc.stop_error_m, 100.0, "cm")
+        );
+        println!(
+            "  bounce time error   {}",
+            spread(&acc.bounce_time_error_s, 1000.0, "ms")
+        );
+        if let Some(p) = acc.phantom_pull_max_m {
+            println!("  phantom pull max    {:.1} cm", p * 100.0);
+        }
+    }
+}
+
+pub fn offline(a: ReplayArgs) -> Result<()> {
+    let (cfg, _) = serve_config(&a.serve)?;
+    let messages = read(&a.files)?;
+    let opts = ReplayOptions {
+        engine: cfg.engine.clone(),
+        prefix: cfg.prefix.clone(),
+        state_rate_hz: cfg.state_rate_hz,
+    };
+    let start = messages.first().map(|m| m.log_time).unwrap_or(Stamp(0));
+    let mut sink = a
+        .out
+        .as_ref()
+        .map(|dir| {
+            let mut r = RecorderConfig::new(dir);
+            r.file_prefix = "replay".into();
+            RecorderSink::create(r, start)
+        })
+        .transpose()?;
+    let t0 = Instant::now();
+    let mut bar = progress_bar("replay");
+    let report = match sink.as_mut() {
+        Some(s) => replay(&messages, &opts, s, &mut bar)?,
+        None => replay(&messages, &opts, &mut (), &mut bar)?,
+    };
+    let wall_s = t0.elapsed().as_secs_f64();
+    if a.json {
+        let acc = serde_json::to_value(&report.accuracy)?;
+        println!(
+            "{}",
+            serde_json::json!({
+                "messages": report.messages,
+                "observations": report.observations,
+                "observations_accepted": report.observations_accepted,
+                "states_recorded": report.states_recorded,
+                "states_identical": report.states_identical,
+                "states_written": report.states_written,
+                "span_s": report.span_s,
+                "wall_s": wall_s,
+                "accuracy": acc,
+            })
+        );
+    } else {
+        print_report(&report, wall_s);
+    }
+    if let Some(s) = sink {
+        for f in s.finish()?.files {
+            println!("replayed log: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// Plays the log back in (scaled) real time: a server whose clock runs through the match,
+/// fed over Zenoh by a publisher that re-sends each recorded message when it was received.
+pub async fn realtime(a: ReplayArgs) -> Result<()> {
+    anyhow::ensure!(
+        a.speed.is_finite() && a.speed > 0.0,
+        "--speed must be positive"
+    );
+    let (mut cfg, _) = serve_config(&a.serve)?;
+    if cfg.net.listen.is_empty() {
+        cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
+    }
+    let messages = read(&a.files)?;
+    let Some(first) = messages.first() else {
+        anyhow::bail!("the log holds no messages");
+    };
+    let clock = ScaledClock::new(first.log_time, a.speed);
+    let live = serve::shared(&cfg, Arc::new(clock), None)?;
+    let http = tokio::net::TcpListener::bind(&a.serve.http)
+        .await
+        .with_context(|| format!("cannot listen for HTTP on {}", a.serve.http))?;
+    println!("http://{}/", http.local_addr()?);
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let mut server_stop = stop_rx;
+    let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
+        let _ = server_stop.wait_for(|s| *s).await;
+    }));
+    let publisher = NetConfig::connecting(&cfg.net.listen[0]).open().await?;
+    let keys = KeySpace::new(&cfg.prefix)?;
+    let mut tokens = Vec::new();
+    let mut seen = BTreeSet::new();
+    let mut bar = progress_bar("replay");
+    let total = messages.len();
+    for (i, m) in messages.iter().enumerate() {
+        let known = matches!(m.schema_name.as_str(), "Observation" | "RobotStatus");
+        if !known {
+            continue;
+        }
+        if let Some(id) = keys.robot_id_of(&m.topic)
+            && seen.insert(id.to_string())
+        {
+            let token = publisher
+                .liveliness()
+                .declare_token(keys.robot_liveliness(id)?)
+                .await
+                .map_err(|e| anyhow::anyhow!("robot token: {e}"))?;
+            tokens.push(token);
+        }
+        let wake = clock.instant_of(m.log_time);
+        tokio::select! {
+            _ = tokio::time::sleep_until(wake.into()) => {}
+            _ = shutdown_signal() => break,
+        }
+        if let Err(e) = publisher.put(m.topic.as_str(), m.data.clone()).await {
+            tracing::warn!("re-publishing {}: {e}", m.topic);
+        }
+        if i % 1000 == 0 {
+            bar(i, total);
+        }
+    }
+    bar(total, total);
+    drop(tokens);
+    let _ = stop_tx.send(true);
+    server.await??;
+    let _ = publisher.close().await;
+    Ok(())
+}

@@ -1,0 +1,134 @@
+//! Match logs from a live server process: a clean stop leaves a complete log whose replay
+//! reproduces every published state; `kill -9` loses at most about the last second.
+
+mod support;
+
+use fusion_server::mcap_read::read_log;
+use proto::Stamp;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+use support::*;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("rf-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+fn logs_in(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .expect("log dir")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// A server recording into `dir` and a process of simulated robots feeding it.
+fn recorded_match(dir: &Path, seconds: f64) -> (Proc, Proc, String) {
+    let dir = dir.to_string_lossy().into_owned();
+    let (server, endpoint, addr) = start_server(&["--record", &dir, "--rate-hz", "20"]);
+    let start = Stamp(now_ns()).offset_secs(1.0).0.to_string();
+    let robots = Proc::spawn(&[
+        "sim-robots",
+        "--connect",
+        &endpoint,
+        "--scenario",
+        "team-rally",
+        "--seed",
+        "4",
+        "--duration-s",
+        &seconds.to_string(),
+        "--start-ns",
+        &start,
+    ]);
+    (server, robots, addr)
+}
+
+fn states_recorded(addr: &str) -> u64 {
+    let (_, text) = http_get(addr, "/metrics").expect("metrics");
+    text.lines()
+        .find_map(|l| l.strip_prefix("rf_states_published_total "))
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(0)
+}
+
+#[test]
+fn a_recorded_match_replays_to_identical_states() {
+    let dir = temp_dir("record");
+    let (mut server, mut robots, addr) = recorded_match(&dir, 6.0);
+    wait_for("robots to finish", Duration::from_secs(60), || {
+        robots.child.try_wait().ok().flatten()
+    });
+    assert!(states_recorded(&addr) > 20, "the server published states");
+    assert!(server.terminate(Duration::from_secs(20)).success());
+    drop(robots);
+
+    let files = logs_in(&dir);
+    assert_eq!(files.len(), 1, "{files:?}");
+    let log = read_log(&files[0]).expect("readable log");
+    assert!(log.complete, "{:?}", log.problem);
+    let count = |schema: &str| {
+        log.messages
+            .iter()
+            .filter(|m| m.schema_name == schema)
+            .count()
+    };
+    assert!(count("Observation") > 100, "{}", count("Observation"));
+    assert!(count("RobotStatus") > 10);
+    assert!(count("BallState") > 20);
+
+    let out = std::process::Command::new(BIN)
+        .args(["replay", "--json"])
+        .arg(&files[0])
+        .output()
+        .expect("replay");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let report: serde_json::Value = serde_json::from_str(stdout.trim()).expect("JSON summary");
+    let recorded = report["states_recorded"].as_u64().expect("states_recorded");
+    assert_eq!(recorded as usize, count("BallState"));
+    assert_eq!(
+        report["states_identical"].as_u64(),
+        Some(recorded),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn kill_9_while_recording_loses_at_most_about_a_second() {
+    let dir = temp_dir("kill9");
+    let (mut server, robots, addr) = recorded_match(&dir, 30.0);
+    wait_for("a few seconds of states", Duration::from_secs(60), || {
+        (states_recorded(&addr) > 60).then_some(())
+    });
+    let killed_at = Stamp(now_ns());
+    server.child.kill().expect("kill -9");
+    let _ = server.child.wait();
+    drop(robots);
+
+    let files = logs_in(&dir);
+    assert_eq!(files.len(), 1, "{files:?}");
+    let log = read_log(&files[0]).expect("a crashed log is still readable");
+    assert!(!log.complete, "no footer after kill -9");
+    assert!(log.messages.len() > 100, "{}", log.messages.len());
+    for m in &log.messages {
+        assert!(serde_json::from_slice::<serde_json::Value>(&m.data).is_ok());
+    }
+    let last = log
+        .messages
+        .iter()
+        .map(|m| m.log_time)
+        .max()
+        .expect("messages");
+    let lost_s = killed_at.secs_since(last);
+    assert!(lost_s < 1.5, "the log ends {lost_s:.2} s before the kill");
+    let _ = std::fs::remove_dir_all(&dir);
+}
