@@ -48,6 +48,9 @@ pub struct SimulateArgs {
     /// Match length, seconds (default: the scenario's).
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Robots on the pitch in a `match` (default five).
+    #[arg(long)]
+    pub team_size: Option<usize>,
     /// Directory for the log file.
     #[arg(long, default_value = "out/logs")]
     pub out: PathBuf,
@@ -130,6 +133,9 @@ pub struct DemoArgs {
     pub scenario: String,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Simulated MiRos on the pitch (in the `match` scenario).
+    #[arg(long, default_value_t = 4)]
+    pub robots: usize,
     /// Length of each simulated match, seconds.
     #[arg(long, default_value_t = 120.0)]
     pub match_s: f64,
@@ -153,6 +159,9 @@ pub struct SimRobotsArgs {
     /// Match length, seconds (default: the scenario's).
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Robots on the pitch in a `match` (default five).
+    #[arg(long)]
+    pub team_size: Option<usize>,
     /// Match start as nanoseconds since the UNIX epoch (default: now); processes that play
     /// one match together must share it.
     #[arg(long)]
@@ -334,7 +343,7 @@ async fn demo_cmd(a: DemoArgs) -> Result<()> {
     let log = start_log(rec)?;
     let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
-    let mut server_stop = stop_rx.clone();
+    let (server_stop_tx, mut server_stop) = tokio::sync::watch::channel(false);
     let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
         let _ = server_stop.wait_for(|s| *s).await;
     }));
@@ -343,6 +352,7 @@ async fn demo_cmd(a: DemoArgs) -> Result<()> {
         seed: a.seed,
         robots: Vec::new(),
         duration_s: Some(a.match_s),
+        team_size: Some(a.robots),
         start: SystemClock.now().offset_secs(1.0),
         repeat: true,
         status_rate_hz: 5.0,
@@ -367,8 +377,10 @@ async fn demo_cmd(a: DemoArgs) -> Result<()> {
         }
         None => shutdown_signal().await,
     }
+    // Robots leave first, so the server sees them go.
     let _ = stop_tx.send(true);
     let published = sims.await.context("simulated robots")??;
+    let _ = server_stop_tx.send(true);
     server.await.context("server")??;
     finish_log(log)?;
     let fused = live.with_engine(|e| e.counters().observations_accepted);
@@ -382,6 +394,7 @@ async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
         seed: a.seed,
         robots: a.robots,
         duration_s: a.duration_s,
+        team_size: a.team_size,
         start: a
             .start_ns
             .map(proto::Stamp)

@@ -10,7 +10,7 @@ use clap::Parser;
 fn main() -> Result<()> {
     let args = cli::Cli::parse();
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

@@ -47,6 +47,7 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
         a.seed,
         sim::SimConfig::default().start,
         a.duration_s,
+        a.team_size,
     )?;
     let mut cfg = RecorderConfig::new(&a.out);
     cfg.file_prefix = format!("sim-{}-{}", a.scenario, a.seed);

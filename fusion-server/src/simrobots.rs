@@ -20,6 +20,8 @@ pub struct SimRobotsConfig {
     pub robots: Vec<String>,
     /// Overrides the scenario's length.
     pub duration_s: Option<f64>,
+    /// Robots in a `match` (default: five).
+    pub team_size: Option<usize>,
     /// Run t = 0 at this stamp (shared by every process of one match).
     pub start: Stamp,
     /// After the match, play the next seed, and so on, until stopped.
@@ -35,10 +37,12 @@ pub fn simulate(
     seed: u64,
     start: Stamp,
     duration_s: Option<f64>,
+    team_size: Option<usize>,
 ) -> Result<SimRun> {
     let cfg = SimConfig {
         start,
         duration_s,
+        team_size,
         ..SimConfig::default()
     };
     sim::run_scenario(scenario, seed, &cfg).with_context(|| format!("simulating {scenario}"))
@@ -175,7 +179,7 @@ pub async fn run(cfg: SimRobotsConfig, stop: watch::Receiver<bool>) -> Result<u6
     let mut seed = cfg.seed;
     let mut total = 0;
     // One session and liveliness token per robot, kept across matches.
-    let first = simulate(&cfg.scenario, seed, start, cfg.duration_s)?;
+    let first = simulate(&cfg.scenario, seed, start, cfg.duration_s, cfg.team_size)?;
     let ids = chosen_robots(&first, &cfg.robots)?;
     let mut sessions = Vec::new();
     for id in &ids {
@@ -204,9 +208,9 @@ pub async fn run(cfg: SimRobotsConfig, stop: watch::Receiver<bool>) -> Result<u6
         // Simulate the next match while this one plays.
         let next_start = start.offset_secs(run.duration_s);
         let next = if cfg.repeat {
-            let (scenario, d) = (cfg.scenario.clone(), cfg.duration_s);
+            let (scenario, d, n) = (cfg.scenario.clone(), cfg.duration_s, cfg.team_size);
             Some(tokio::task::spawn_blocking(move || {
-                simulate(&scenario, seed + 1, next_start, d)
+                simulate(&scenario, seed + 1, next_start, d, n)
             }))
         } else {
             None

@@ -25,8 +25,8 @@ fn server_follows_the_simulated_ball_and_notices_a_robot_dying() {
     let (_server, endpoint, addr) = start_server(&["--id", "e2e"]);
     // Everyone plays the same match from a shared start a little ahead.
     let start = Stamp(now_ns()).offset_secs(3.0);
-    let run =
-        fusion_server::simrobots::simulate(SCENARIO, SEED, start, Some(MATCH_S)).expect("simulate");
+    let run = fusion_server::simrobots::simulate(SCENARIO, SEED, start, Some(MATCH_S), None)
+        .expect("simulate");
     let ids = fusion_server::simrobots::chosen_robots(&run, &[]).expect("robots");
     assert!(ids.len() >= 3, "{ids:?}");
     let start_ns = start.0.to_string();

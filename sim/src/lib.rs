@@ -106,6 +106,8 @@ pub struct SimConfig {
     pub duration_s: Option<f64>,
     /// Epoch of t = 0.
     pub start: Stamp,
+    /// Robots in a `match` (default five); other scenarios have their own cast.
+    pub team_size: Option<usize>,
 }
 
 impl Default for SimConfig {
@@ -119,6 +121,7 @@ impl Default for SimConfig {
             duration_s: None,
             // 2026-01-01T00:00:00Z.
             start: Stamp(1_767_225_600 * 1_000_000_000),
+            team_size: None,
         }
     }
 }
@@ -132,6 +135,9 @@ impl SimConfig {
         }
         if !positive(self.truth_rate_hz) {
             return bad("truth_rate_hz must be positive");
+        }
+        if self.team_size.is_some_and(|n| !(1..=32).contains(&n)) {
+            return bad("team_size must be in 1..=32");
         }
         if !(0.0..=1.0).contains(&self.misreport_fraction) {
             return bad("misreport_fraction must be in 0..=1");

@@ -42,6 +42,7 @@ pub fn build(
     rng: &mut Rng,
     params: &TrueParams,
     pitch: &Pitch,
+    team_size: Option<usize>,
 ) -> Option<ScenarioSpec> {
     if let Some(spec) = crate::seed_scenarios::build(name, rng, params, pitch) {
         return Some(spec);
@@ -59,7 +60,7 @@ pub fn build(
             ..rally(rng, pitch, 20.0)
         },
         "kick-restart" => kick_restart(rng, pitch),
-        "match" => football_match(rng, pitch),
+        "match" => football_match(rng, pitch, team_size.unwrap_or(5)),
         _ => return None,
     };
     Some(spec)
@@ -273,16 +274,42 @@ fn kick_restart(rng: &mut Rng, pitch: &Pitch) -> ScenarioSpec {
     }
 }
 
-/// A generic match: five robots in zones, the nearest kicks every 3–6 s to a random point.
-fn football_match(rng: &mut Rng, pitch: &Pitch) -> ScenarioSpec {
-    let ball = [rng.range(-0.3, 0.3), rng.range(-0.3, 0.3)];
-    let zones = [
+/// Zones of a match team of `n`: the five-a-side layout, a subset of it for fewer robots,
+/// and a grid of overlapping columns for more.
+fn match_zones(pitch: &Pitch, n: usize) -> Vec<Rect> {
+    let five = [
         zone(pitch, (-1.0, -0.2), (-1.0, 0.2)),
         zone(pitch, (-1.0, -0.2), (-0.2, 1.0)),
         zone(pitch, (-0.5, 0.5), (-0.8, 0.8)),
         zone(pitch, (0.2, 1.0), (-1.0, 0.2)),
         zone(pitch, (0.2, 1.0), (-0.2, 1.0)),
     ];
+    if n <= 5 {
+        // Wings first, the centre last.
+        let mut pick = [0usize, 4, 1, 3, 2][..n.max(1)].to_vec();
+        pick.sort_unstable();
+        return pick.into_iter().map(|i| five[i]).collect();
+    }
+    let cols = n.div_ceil(2);
+    (0..n)
+        .map(|i| {
+            let (c, r) = ((i / 2) as f64, (i % 2) as f64);
+            let w = 2.0 / cols as f64;
+            let x0 = -1.0 + c * w;
+            zone(
+                pitch,
+                ((x0 - 0.1).max(-1.0), (x0 + w + 0.1).min(1.0)),
+                (-1.0 + r * 0.9, 0.1 + r * 0.9),
+            )
+        })
+        .collect()
+}
+
+/// A generic match: `n` robots (five by default) in zones, the nearest kicks every 3–6 s
+/// to a random point.
+fn football_match(rng: &mut Rng, pitch: &Pitch, n: usize) -> ScenarioSpec {
+    let ball = [rng.range(-0.3, 0.3), rng.range(-0.3, 0.3)];
+    let zones = match_zones(pitch, n);
     let robots = wanderers(rng, &zones, ball);
     let speed = SpeedRule::Reach {
         lo: 0.6,
@@ -312,6 +339,22 @@ mod tests {
     use crate::TEAM_SCENARIOS;
 
     #[test]
+    fn a_match_takes_any_team_size() {
+        let params = TrueParams::draw(&mut Rng::new(2));
+        for n in [1, 3, 4, 5, 8, 20] {
+            let spec = build(
+                "match",
+                &mut Rng::new(1),
+                &params,
+                &Pitch::default(),
+                Some(n),
+            )
+            .expect("match");
+            assert_eq!(spec.robots.len(), n);
+        }
+    }
+
+    #[test]
     fn team_scenarios_build_with_their_robot_counts() {
         let params = TrueParams {
             rolling_decel_mps2: 0.3,
@@ -321,7 +364,7 @@ mod tests {
         };
         let counts = [4, 3, 4, 4, 4, 3, 5];
         for (name, n) in TEAM_SCENARIOS.iter().zip(counts) {
-            let spec = build(name, &mut Rng::new(1), &params, &Pitch::default());
+            let spec = build(name, &mut Rng::new(1), &params, &Pitch::default(), None);
             let Some(spec) = spec else {
                 panic!("{name}");
             };

@@ -60,6 +60,7 @@ impl World {
             &mut Rng::stream(seed, "scenario", 0),
             &params,
             &cfg.pitch,
+            cfg.team_size,
         )
         .ok_or_else(|| SimError::UnknownScenario {
             name: name.to_string(),

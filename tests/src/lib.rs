@@ -2,6 +2,7 @@
 //! the seed's method and an oracle, scored against ground truth.
 
 pub mod baseline;
+pub mod bench;
 pub mod eval;
 pub mod methods;
 pub mod plot;

@@ -1,0 +1,161 @@
+//! The server benchmark's results and their markdown table (see the `bench_server` binary).
+
+use serde::Serialize;
+use sim::score::quantile;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Throughput {
+    pub sent: u64,
+    pub received: u64,
+    pub secs: f64,
+    pub payload_bytes: usize,
+}
+
+impl Throughput {
+    pub fn per_s(&self) -> f64 {
+        self.received as f64 / self.secs.max(1e-9)
+    }
+    pub fn lost(&self) -> u64 {
+        self.sent.saturating_sub(self.received)
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Latency {
+    pub rate_hz: f64,
+    pub sent: usize,
+    pub matched: usize,
+    pub p50_s: Option<f64>,
+    pub p99_s: Option<f64>,
+    pub max_s: Option<f64>,
+}
+
+impl Latency {
+    pub fn of(rate_hz: f64, sent: usize, lat_s: Vec<f64>) -> Self {
+        Latency {
+            rate_hz,
+            sent,
+            matched: lat_s.len(),
+            p50_s: quantile(&lat_s, 0.5),
+            p99_s: quantile(&lat_s, 0.99),
+            max_s: lat_s.iter().copied().reduce(f64::max),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ReplaySpeed {
+    pub match_s: f64,
+    pub robots: usize,
+    pub observations: u64,
+    pub states: u64,
+    pub messages: usize,
+    /// Reading the log file.
+    pub read_s: f64,
+    /// Re-fusing the observations with states at 30 Hz.
+    pub fuse_s: f64,
+    /// Every message, ground truth rebuilt and scored as the evaluation does.
+    pub full_s: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Memory {
+    pub robots: usize,
+    pub seconds: f64,
+    pub published: u64,
+    pub rss_idle_kb: u64,
+    pub rss_kb: u64,
+    pub hwm_kb: u64,
+    /// CPU seconds per wall second of the server process.
+    pub cpu_share: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub cores: usize,
+    pub raw: Throughput,
+    pub server: Throughput,
+    pub latency: Latency,
+    pub replay: ReplaySpeed,
+    pub memory: Memory,
+}
+
+fn ms(v: Option<f64>) -> String {
+    v.map(|s| format!("{:.3} ms", s * 1e3))
+        .unwrap_or_else(|| "-".into())
+}
+
+fn mark(ok: bool) -> &'static str {
+    if ok { "met" } else { "missed" }
+}
+
+impl Report {
+    pub fn markdown(&self) -> String {
+        let r = &self.replay;
+        let m = &self.memory;
+        let l = &self.latency;
+        let fuse_x = r.match_s / r.fuse_s.max(1e-9);
+        let read_fuse_x = r.match_s / (r.read_s + r.fuse_s).max(1e-9);
+        let full_x = r.match_s / (r.read_s + r.full_s).max(1e-9);
+        let rss_mb = m.hwm_kb as f64 / 1024.0;
+        let mut out = String::new();
+        out.push_str(&format!(
+            "Measured on {} cores.\n\n| measure | result | target | |\n|---|---|---|---|\n",
+            self.cores
+        ));
+        out.push_str(&format!(
+            "| raw Zenoh loopback ({} B payloads, one session to another) | {:.0} msg/s ({} of {} received) | ceiling | |\n",
+            self.raw.payload_bytes,
+            self.raw.per_s(),
+            self.raw.received,
+            self.raw.sent
+        ));
+        let ratio = self.server.per_s() / self.raw.per_s().max(1e-9);
+        out.push_str(&format!(
+            "| observations through Zenoh into the server | {:.0} obs/s, {} lost of {} ({:.0} % of raw Zenoh) | ≥ 100 000 obs/s without loss | {} |\n",
+            self.server.per_s(),
+            self.server.lost(),
+            self.server.sent,
+            100.0 * ratio,
+            mark(self.server.per_s() >= 100_000.0 && self.server.lost() == 0)
+        ));
+        out.push_str(&format!(
+            "| publish → state latency at {:.0} obs/s (states on update; {} of {} matched) | p50 {}, p99 {}, max {} | p99 ≤ 1 ms | {} |\n",
+            l.rate_hz,
+            l.matched,
+            l.sent,
+            ms(l.p50_s),
+            ms(l.p99_s),
+            ms(l.max_s),
+            mark(l.p99_s.is_some_and(|p| p <= 1e-3))
+        ));
+        out.push_str(&format!(
+            "| offline replay, {:.0} s match, {} robots, {} observations: read + re-fuse (states at 30 Hz) | {:.3} s + {:.3} s = {:.0}× real time (re-fusion alone {:.0}×) | ≥ 2 000× | {} |\n",
+            r.match_s,
+            r.robots,
+            r.observations,
+            r.read_s,
+            r.fuse_s,
+            read_fuse_x,
+            fuse_x,
+            mark(read_fuse_x >= 2000.0)
+        ));
+        out.push_str(&format!(
+            "| offline replay with ground truth scored ({} messages) | {:.3} s = {:.0}× real time | | |\n",
+            r.messages,
+            r.read_s + r.full_s,
+            full_x
+        ));
+        out.push_str(&format!(
+            "| server resident memory, {} robots for {:.0} s ({} observations) | peak {:.1} MB (idle {:.1} MB), CPU {:.0} % of a core | ≤ 50 MB | {} |\n",
+            m.robots,
+            m.seconds,
+            m.published,
+            rss_mb,
+            m.rss_idle_kb as f64 / 1024.0,
+            100.0 * m.cpu_share,
+            mark(rss_mb <= 50.0)
+        ));
+        out
+    }
+}
