@@ -111,18 +111,32 @@ type Key = (u64, Arc<str>, u64, u8);
 struct Pending {
     key: Key,
     input: ObsInput,
+    /// A checkpoint: the state right after this observation (every few observations).
+    after: Option<Tracker>,
 }
+
+/// Checkpoints are at least this far apart in capture time: at robot rates every pending
+/// observation keeps one (a late arrival replays only what follows it); under a flood,
+/// in-order arrivals clone the state only this rarely.
+const CHECKPOINT_SPACING_S: f64 = 0.005;
+/// Committed observations folded into the base state at most this many at a time.
+const FOLD_EVERY: usize = 16;
 
 /// The fusion core. Time is always passed in; nothing here reads a clock.
 #[derive(Debug, Clone)]
 pub struct Fusion {
     cfg: FusionConfig,
-    /// State after every committed observation (older than the late window).
+    /// A state from before every pending observation: `base_then` applied on top of it
+    /// gives the state after every committed observation (older than the late window).
     base: Tracker,
-    /// Observations inside the late window, in capture order, and the state after each.
+    base_then: Vec<ObsInput>,
+    /// Observations inside the late window, in capture order, with checkpoints.
     /// The window ends at `newest`, the latest receiver clock seen.
     pending: VecDeque<Pending>,
-    snapshots: VecDeque<Tracker>,
+    /// The state after every observation received so far.
+    current: Tracker,
+    /// Capture time of the newest checkpoint.
+    last_checkpoint_s: f64,
     newest: Option<Stamp>,
     names: Vec<Arc<str>>,
     counters: FusionCounters,
@@ -134,9 +148,11 @@ impl Fusion {
         let base = Tracker::new(Arc::new(cfg.tracker.clone()), bounds);
         Fusion {
             cfg,
+            current: base.clone(),
+            last_checkpoint_s: f64::NEG_INFINITY,
             base,
+            base_then: Vec::new(),
             pending: VecDeque::new(),
-            snapshots: VecDeque::new(),
             newest: None,
             names: Vec::new(),
             counters: FusionCounters::default(),
@@ -156,10 +172,10 @@ impl Fusion {
 
     /// The tracker after every observation received so far.
     pub fn tracker(&self) -> &Tracker {
-        self.snapshots.back().unwrap_or(&self.base)
+        &self.current
     }
 
-    /// Interns robot names so snapshots share them.
+    /// Interns robot names so states share them.
     fn name(&mut self, robot: &str) -> Arc<str> {
         if let Some(n) = self.names.iter().find(|n| ***n == *robot) {
             return n.clone();
@@ -216,17 +232,25 @@ impl Fusion {
             covariance_m2: r,
             robot_pose: obs.robot_pose,
         };
-        self.pending.insert(pos, Pending { key, input });
-        // Replay from the state just before the new observation.
-        let mut tracker = if pos == 0 {
-            self.base.clone()
+        let appended = pos == self.pending.len();
+        if appended {
+            self.current.apply(&input);
+            let due = input.t_s - self.last_checkpoint_s >= CHECKPOINT_SPACING_S;
+            let after = due.then(|| self.current.clone());
+            if due {
+                self.last_checkpoint_s = input.t_s;
+            }
+            self.pending.push_back(Pending { key, input, after });
         } else {
-            self.snapshots[pos - 1].clone()
-        };
-        self.snapshots.truncate(pos);
-        for p in self.pending.iter().skip(pos) {
-            tracker.apply(&p.input);
-            self.snapshots.push_back(tracker.clone());
+            self.pending.insert(
+                pos,
+                Pending {
+                    key,
+                    input,
+                    after: None,
+                },
+            );
+            self.replay_from(pos);
         }
         let replayed = self.pending.len() - pos - 1;
         self.newest = Some(horizon);
@@ -249,11 +273,55 @@ impl Fusion {
             .front()
             .is_some_and(|p| newest.secs_since(Stamp(p.key.0)) > self.cfg.late_window_s)
         {
-            self.pending.pop_front();
-            if let Some(s) = self.snapshots.pop_front() {
-                self.base = s;
+            let Some(p) = self.pending.pop_front() else {
+                break;
+            };
+            match p.after {
+                Some(state) => {
+                    self.base = state;
+                    self.base_then.clear();
+                }
+                None => self.base_then.push(p.input),
             }
         }
+        // Without checkpoints (a quiet window) fold the committed inputs in, bounded.
+        if self.base_then.len() >= FOLD_EVERY {
+            for input in self.base_then.drain(..) {
+                self.base.apply(&input);
+            }
+        }
+    }
+
+    /// Recomputes the states from pending observation `pos` on, starting from the nearest
+    /// checkpoint before it (or the committed state).
+    fn replay_from(&mut self, pos: usize) {
+        let checkpoint = (0..pos)
+            .rev()
+            .find_map(|i| self.pending[i].after.as_ref().map(|t| (i + 1, t.clone())));
+        let (start, mut tracker) = match checkpoint {
+            Some(c) => c,
+            None => {
+                let mut t = self.base.clone();
+                for input in &self.base_then {
+                    t.apply(input);
+                }
+                (0, t)
+            }
+        };
+        let mut last = start
+            .checked_sub(1)
+            .map_or(f64::NEG_INFINITY, |i| self.pending[i].input.t_s);
+        for i in start..self.pending.len() {
+            let p = &mut self.pending[i];
+            tracker.apply(&p.input);
+            let due = p.input.t_s - last >= CHECKPOINT_SPACING_S;
+            p.after = due.then(|| tracker.clone());
+            if due {
+                last = p.input.t_s;
+            }
+        }
+        self.last_checkpoint_s = last;
+        self.current = tracker;
     }
 
     /// The main track's filter predicted to `at` (no earlier than its own time).

@@ -179,6 +179,9 @@ pub struct Tracker {
 }
 
 const HIT_HISTORY_S: f64 = 1.5;
+/// ... and at most this many (a flood of observations must not make states expensive to
+/// copy; support counts only need to reach a few).
+const MAX_HITS: usize = 1024;
 /// A track updated this recently is being watched.
 const WATCHED_S: f64 = 0.5;
 /// Robots that reported anything this recently count as on the pitch (a robot that sees
@@ -379,6 +382,9 @@ impl Tracker {
             .front()
             .is_some_and(|(t, _)| *t < o.t_s - HIT_HISTORY_S)
         {
+            track.hits.pop_front();
+        }
+        if track.hits.len() > MAX_HITS {
             track.hits.pop_front();
         }
         if learn_decel {
