@@ -9,9 +9,9 @@ use proto::{BallState, KeySpace, Pitch, Stamp};
 use serde::Serialize;
 use std::fmt::Debug;
 use std::sync::atomic::Ordering::Relaxed;
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use tokio::sync::{Notify, broadcast};
+use tokio::sync::broadcast;
 
 /// Where the shell reads time. Live: the system clock. Replay: a clock running through a
 /// recorded match, possibly faster than real time.
@@ -106,8 +106,9 @@ pub struct Live {
     pub stats: ShellStats,
     /// One frame per published state; slow readers lose the oldest frames.
     pub stream: broadcast::Sender<Arc<str>>,
-    /// Signalled after each accepted observation when states are published on update.
-    pub updated: Notify,
+    /// Where states go on Zenoh, once the session has declared it.
+    publisher: OnceLock<zenoh::pubsub::Publisher<'static>>,
+    /// Publish a state right after each accepted observation, from the receiving thread.
     pub publish_on_update: bool,
     log: Option<Arc<dyn MatchLog>>,
     last_reject_log: Mutex<Option<Instant>>,
@@ -132,7 +133,7 @@ impl Live {
             clock,
             stats: ShellStats::default(),
             stream,
-            updated: Notify::new(),
+            publisher: OnceLock::new(),
             publish_on_update,
             log,
             last_reject_log: Mutex::new(None),
@@ -177,7 +178,7 @@ impl Live {
                 inner.unpublished.push(now);
                 drop(inner);
                 if self.publish_on_update {
-                    self.updated.notify_one();
+                    self.publish_now(false);
                 }
             }
             Err(e) => {
@@ -219,9 +220,9 @@ impl Live {
         }
     }
 
-    /// Takes the state to publish now: its wire payload and the live-stream frame.
-    /// `None` until a ball has been seen.
-    pub fn take_state(&self) -> Option<(Vec<u8>, Arc<str>)> {
+    /// Takes the state to publish now: its wire payload and the live-stream frame (when
+    /// `frame` is asked for and someone is watching). `None` until a ball has been seen.
+    pub fn take_state_with(&self, frame: bool) -> Option<(Vec<u8>, Option<Arc<str>>)> {
         let mut inner = self.lock();
         let now = self.clock.now();
         let state = inner.engine.ball_state(now)?;
@@ -230,13 +231,15 @@ impl Live {
             log.log(LogKind::BallState, &self.keys.ball_state(), now, &payload);
         }
         let arrivals = std::mem::take(&mut inner.unpublished);
-        let view = StateView {
-            stamp: now,
-            ball: Some(state),
-            robots: inner.engine.robots(now),
-            pitch: inner.engine.pitch(),
-        };
-        let frame: Arc<str> = serde_json::to_string(&view).unwrap_or_default().into();
+        let frame = (frame && self.stream.receiver_count() > 0).then(|| {
+            let view = StateView {
+                stamp: now,
+                ball: Some(state),
+                robots: inner.engine.robots(now),
+                pitch: inner.engine.pitch(),
+            };
+            Arc::<str>::from(serde_json::to_string(&view).unwrap_or_default())
+        });
         drop(inner);
         if let Ok(mut h) = self.stats.obs_to_state_s.lock() {
             for a in arrivals {
@@ -245,6 +248,34 @@ impl Live {
         }
         self.stats.states_published.fetch_add(1, Relaxed);
         Some((payload, frame))
+    }
+
+    /// [`Live::take_state_with`] a frame, whether or not anyone is watching.
+    pub fn take_state(&self) -> Option<(Vec<u8>, Arc<str>)> {
+        let (payload, frame) = self.take_state_with(false)?;
+        let frame = frame.unwrap_or_else(|| self.view_json().into());
+        Some((payload, frame))
+    }
+
+    /// Hands the Zenoh publisher of `{prefix}/ball/state` over (once).
+    pub fn set_publisher(&self, p: zenoh::pubsub::Publisher<'static>) {
+        let _ = self.publisher.set(p);
+    }
+
+    /// Publishes the current state on Zenoh, and on the live stream when `stream` (the
+    /// browsers get the regular ticks, not every update), from the calling thread.
+    pub fn publish_now(&self, stream: bool) {
+        use zenoh::Wait;
+        if let Some((payload, frame)) = self.take_state_with(stream) {
+            if let Some(p) = self.publisher.get()
+                && let Err(e) = p.put(payload).wait()
+            {
+                tracing::warn!("publishing the ball state failed: {e}");
+            }
+            if let Some(f) = frame {
+                self.broadcast(f);
+            }
+        }
     }
 
     /// Sends a frame to the live stream (never waits for readers).

@@ -121,8 +121,11 @@ pub async fn serve(
         .map_err(|e| anyhow::anyhow!("declaring the server token: {e}"))?;
     let publisher = session
         .declare_publisher(keys.ball_state())
+        // Sent at once rather than batched: robots act on it.
+        .express(true)
         .await
         .map_err(|e| anyhow::anyhow!("declaring the state publisher: {e}"))?;
+    live.set_publisher(publisher);
 
     let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
     let app = crate::http::app(live.clone());
@@ -144,14 +147,12 @@ pub async fn serve(
     loop {
         tokio::select! {
             _ = tick.tick() => {}
-            _ = live.updated.notified(), if live.publish_on_update => {}
             _ = stop_rx.wait_for(|s| *s) => break,
         }
-        if let Some((payload, frame)) = live.take_state() {
-            if let Err(e) = publisher.put(payload).await {
-                tracing::warn!("publishing the ball state failed: {e}");
-            }
-            live.broadcast(frame);
+        let l = live.clone();
+        // Publishing is quick and never waits on readers; keep it off the async workers.
+        if let Err(e) = tokio::task::spawn_blocking(move || l.publish_now(true)).await {
+            tracing::warn!("state publication failed: {e}");
         }
     }
     match http_task.await {

@@ -132,6 +132,7 @@ async fn play_robot(
 ) -> Result<u64> {
     let obs_pub = session
         .declare_publisher(keys.robot_obs(&plan.id)?)
+        .express(true)
         .await
         .map_err(|e| anyhow::anyhow!("obs publisher: {e}"))?;
     let status_pub = session

@@ -75,6 +75,8 @@ pub struct Report {
     pub cores: usize,
     pub raw: Throughput,
     pub server: Throughput,
+    /// A bare Zenoh round trip (publish, echo from a callback, receive): the ceiling.
+    pub raw_latency: Latency,
     pub latency: Latency,
     pub replay: ReplaySpeed,
     pub memory: Memory,
@@ -118,6 +120,14 @@ impl Report {
             self.server.sent,
             100.0 * ratio,
             mark(self.server.per_s() >= 100_000.0 && self.server.lost() == 0)
+        ));
+        let rl = &self.raw_latency;
+        out.push_str(&format!(
+            "| raw Zenoh round trip at {:.0} msg/s (publish, echo from a callback, receive) | p50 {}, p99 {}, max {} | ceiling | |\n",
+            rl.rate_hz,
+            ms(rl.p50_s),
+            ms(rl.p99_s),
+            ms(rl.max_s)
         ));
         out.push_str(&format!(
             "| publish → state latency at {:.0} obs/s (states on update; {} of {} matched) | p50 {}, p99 {}, max {} | p99 ≤ 1 ms | {} |\n",

@@ -239,27 +239,28 @@ async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
         publish_on_update: true,
         ..ServeConfig::default()
     };
-    let (_live, stop, task) = start_server(cfg).await?;
+    let (live, stop, task) = start_server(cfg).await?;
     let tx = connect(&endpoint).await?;
-    let states = tx
-        .declare_subscriber("rf/ball/state")
-        .with(zenoh::handlers::FifoChannel::new(1 << 16))
-        .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let publ = publisher(&tx, "rf/robots/bench0/obs".into()).await?;
-    tokio::time::sleep(Duration::from_millis(300)).await;
+    // Arrival times are taken in the subscriber's callback, on Zenoh's receiving thread.
     let (seen_tx, seen_rx) = std::sync::mpsc::channel::<(Instant, u64)>();
-    let collector = tokio::spawn(async move {
-        while let Ok(s) = states.recv_async().await {
+    let _states = tx
+        .declare_subscriber("rf/ball/state")
+        .callback(move |s| {
             let at = Instant::now();
             if let Ok(b) = proto::decode::<proto::BallState>(&s.payload().to_bytes())
                 && let Some(seen) = b.last_seen
-                && seen_tx.send((at, seen.0)).is_err()
             {
-                break;
+                let _ = seen_tx.send((at, seen.0));
             }
-        }
-    });
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let publ = tx
+        .declare_publisher("rf/robots/bench0/obs")
+        .express(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    tokio::time::sleep(Duration::from_millis(300)).await;
     let n = (rate_hz * seconds) as u64;
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let mut sent: Vec<(Instant, u64)> = Vec::with_capacity(n as usize);
@@ -284,19 +285,95 @@ async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
     let _ = tx.close().await;
     let _ = stop.send(true);
     task.await??;
-    let _ = collector.await;
+    let inside = live.stats.latency();
+    eprintln!(
+        "      inside the server (arrival to publication): p50 ≤ {:?} s, p99 ≤ {:?} s",
+        inside.quantile_bound(0.5),
+        inside.quantile_bound(0.99)
+    );
     let mut seen: VecDeque<(Instant, u64)> = seen_rx.try_iter().collect();
     // Each observation's latency: the first state at or after its publication whose newest
     // included capture is at least its own.
     let mut lat_s = Vec::with_capacity(sent.len());
     for (at, stamp) in &sent {
-        while seen.front().is_some_and(|(_, s)| *s < *stamp) {
+        // The state carries capture times through f64 seconds: allow a microsecond.
+        while seen.front().is_some_and(|(_, s)| *s + 1_000 < *stamp) {
             seen.pop_front();
         }
         if let Some((t, _)) = seen.front() {
             lat_s.push(t.saturating_duration_since(*at).as_secs_f64());
         }
     }
+    Ok(Latency::of(rate_hz, sent.len(), lat_s))
+}
+
+/// The same pattern without a server: a message to another session, whose callback
+/// publishes a reply at once (express both ways), at `rate_hz` for `seconds`.
+async fn raw_echo_latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
+    use zenoh::Wait;
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let echo = NetConfig::listening(&endpoint).open().await?;
+    let pong = echo
+        .declare_publisher("bench/pong")
+        .express(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let _ping_sub = echo
+        .declare_subscriber("bench/ping")
+        .callback(move |s| {
+            let _ = pong.put(s.payload().to_bytes().to_vec()).wait();
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let tx = connect(&endpoint).await?;
+    let (seen_tx, seen_rx) = std::sync::mpsc::channel::<(Instant, u64)>();
+    let _pong_sub = tx
+        .declare_subscriber("bench/pong")
+        .callback(move |s| {
+            let at = Instant::now();
+            let b = s.payload().to_bytes();
+            if let Some(seq) = b.get(..8).and_then(|x| <[u8; 8]>::try_from(x).ok()) {
+                let _ = seen_tx.send((at, u64::from_le_bytes(seq)));
+            }
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let ping = tx
+        .declare_publisher("bench/ping")
+        .express(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let n = (rate_hz * seconds) as u64;
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let mut sent = Vec::with_capacity(n as usize);
+    let t0 = Instant::now();
+    for k in 0..n {
+        let due = t0 + period * k as u32;
+        if due > Instant::now() {
+            tokio::time::sleep_until(due.into()).await;
+        }
+        let mut payload = k.to_le_bytes().to_vec();
+        payload.resize(230, b' ');
+        let at = Instant::now();
+        ping.put(payload)
+            .await
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        sent.push(at);
+    }
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let got: std::collections::HashMap<u64, Instant> =
+        seen_rx.try_iter().map(|(t, k)| (k, t)).collect();
+    let lat_s = sent
+        .iter()
+        .enumerate()
+        .filter_map(|(k, at)| {
+            got.get(&(k as u64))
+                .map(|t| t.saturating_duration_since(*at).as_secs_f64())
+        })
+        .collect();
+    let _ = tx.close().await;
+    let _ = echo.close().await;
     Ok(Latency::of(rate_hz, sent.len(), lat_s))
 }
 
@@ -425,6 +502,7 @@ async fn run(args: Args) -> Result<()> {
         "[3/5] latency at 2000 observations/s for {} s",
         args.latency_s
     );
+    let raw_latency = raw_echo_latency(2000.0, args.latency_s).await?;
     let lat = latency(2000.0, args.latency_s).await?;
     eprintln!("[4/5] offline replay of a {} s match", args.replay_match_s);
     let replay = replay_speed(args.replay_match_s)?;
@@ -433,6 +511,7 @@ async fn run(args: Args) -> Result<()> {
     let report = Report {
         raw,
         server,
+        raw_latency,
         latency: lat,
         replay,
         memory: mem,
