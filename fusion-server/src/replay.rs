@@ -99,6 +99,9 @@ pub fn replay(
         ..ReplayReport::default()
     };
     let has_states = messages.iter().any(|m| m.schema_name == "BallState");
+    let has_truth = messages
+        .iter()
+        .any(|m| m.topic == sim::truth_log::RUN_TOPIC);
     let tick_s = 1.0 / opts.state_rate_hz.max(1e-3);
     let mut next_tick: Option<Stamp> = None;
     let mut truth = TruthLogBuilder::new();
@@ -126,10 +129,17 @@ pub fn replay(
         match m.schema_name.as_str() {
             "Observation" => {
                 report.observations += 1;
-                if let Ok(o) = proto::decode::<proto::Observation>(&m.data) {
-                    arrivals.push((at, o));
-                }
-                if engine.observation(robot, &m.data, at).is_ok() {
+                // Decoded once: kept for scoring (when the log has ground truth) and fused.
+                let accepted = match proto::decode::<proto::Observation>(&m.data) {
+                    Ok(o) => {
+                        if has_truth {
+                            arrivals.push((at, o.clone()));
+                        }
+                        engine.observation_decoded(robot, o, at).is_ok()
+                    }
+                    Err(_) => engine.observation(robot, &m.data, at).is_ok(),
+                };
+                if accepted {
                     report.observations_accepted += 1;
                 }
                 sink.write(&m.topic, &m.schema_name, at, &m.data);

@@ -23,17 +23,26 @@ pub fn path(
     } else {
         0
     };
-    let samples = (0..=n)
-        .map(|k| {
-            let t_s = (k as f64 * sample_dt_s).min(horizon_s);
-            let f = fly(position, velocity, t_s, model, bounds);
-            PathSample {
-                t_s,
-                position_m: f.position,
-                velocity_mps: f.velocity,
-            }
-        })
-        .collect();
+    // Sample to sample (the flight is a flow: flying t1 then t2 is flying t1 + t2), so the
+    // path costs one flight, not one per sample.
+    let mut samples = Vec::with_capacity(n + 1);
+    let (mut p, mut v, mut t_prev) = (position, velocity, 0.0);
+    if speed(v) < model.stop_speed_mps {
+        v = [0.0, 0.0];
+    }
+    for k in 0..=n {
+        let t_s = (k as f64 * sample_dt_s).min(horizon_s);
+        if t_s > t_prev && (v[0] != 0.0 || v[1] != 0.0) {
+            let f = fly(p, v, t_s - t_prev, model, bounds);
+            (p, v) = (f.position, f.velocity);
+        }
+        t_prev = t_s;
+        samples.push(PathSample {
+            t_s,
+            position_m: p,
+            velocity_mps: v,
+        });
+    }
     let whole = fly(position, velocity, horizon_s, model, bounds);
     let bounces = whole
         .hits()
@@ -97,6 +106,28 @@ mod tests {
         assert!(after.velocity_mps[0] < 0.0);
         let stop = pred.stop.expect("stops");
         assert!(stop.t_s > hit.t_s && stop.position_m[0] < b.x_max);
+    }
+
+    #[test]
+    fn samples_are_the_flight_at_their_times() {
+        let m = MotionModel::default();
+        let b = Bounds::from_pitch(&proto::Pitch::default());
+        // Through a corner, a bounce and the stop.
+        let (p0, v0) = ([1.2, 0.8], [2.0, 1.6]);
+        let pred = path(p0, v0, &m, &b, Stamp(0), 3.0, 0.1);
+        for s in &pred.samples {
+            let f = fly(p0, v0, s.t_s, &m, &b);
+            for k in 0..2 {
+                assert!(
+                    (s.position_m[k] - f.position[k]).abs() < 1e-9,
+                    "{s:?} {f:?}"
+                );
+                assert!(
+                    (s.velocity_mps[k] - f.velocity[k]).abs() < 1e-9,
+                    "{s:?} {f:?}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -390,27 +390,39 @@ fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
     )?;
     let dir = std::env::temp_dir().join(format!("rf-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let mut sink =
-        RecorderSink::create(fusion_server::record::RecorderConfig::new(&dir), run.start)?;
-    write_simulated(&run, &proto::KeySpace::default(), &mut sink)?;
-    let files = sink.finish()?.files;
-    let t0 = Instant::now();
-    let log = fusion_server::mcap_read::read_logs(&files)?;
-    let read_s = t0.elapsed().as_secs_f64();
+    let log_of = |prefix: &str, keep: &dyn Fn(&str) -> bool| -> Result<Vec<PathBuf>> {
+        let mut cfg = fusion_server::record::RecorderConfig::new(&dir);
+        cfg.file_prefix = prefix.into();
+        let mut sink = Filter {
+            inner: RecorderSink::create(cfg, run.start)?,
+            keep,
+        };
+        write_simulated(&run, &proto::KeySpace::default(), &mut sink)?;
+        Ok(sink.inner.finish()?.files)
+    };
+    // What the robots sent (a log of observations), and the same with ground truth.
+    let obs_files = log_of("observations", &|schema| schema == "Observation")?;
+    let truth_files = log_of("truth", &|_| true)?;
     let opts = ReplayOptions::default();
-    // Re-fusion alone: the observations, and states at 30 Hz.
-    let obs_only: Vec<_> = log
-        .messages
-        .iter()
-        .filter(|m| m.schema_name == "Observation")
-        .cloned()
-        .collect();
+
     let t0 = Instant::now();
-    let fused = replay(&obs_only, &opts, &mut (), &mut |_, _| {})?;
+    let log = fusion_server::mcap_read::read_logs(&obs_files)?;
+    let read_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let fused = replay(&log.messages, &opts, &mut (), &mut |_, _| {})?;
     let fuse_s = t0.elapsed().as_secs_f64();
-    // The whole replay command's work: every message, ground truth, scoring.
+    // With --out: the re-fused log written too.
+    let mut out_cfg = fusion_server::record::RecorderConfig::new(&dir);
+    out_cfg.file_prefix = "replayed".into();
     let t0 = Instant::now();
-    let full = replay(&log.messages, &opts, &mut (), &mut |_, _| {})?;
+    let mut out = RecorderSink::create(out_cfg, run.start)?;
+    replay(&log.messages, &opts, &mut out, &mut |_, _| {})?;
+    out.finish()?;
+    let write_s = t0.elapsed().as_secs_f64();
+    // The ground-truth log: every message, the run rebuilt and scored.
+    let t0 = Instant::now();
+    let truth_log = fusion_server::mcap_read::read_logs(&truth_files)?;
+    let full = replay(&truth_log.messages, &opts, &mut (), &mut |_, _| {})?;
     let full_s = t0.elapsed().as_secs_f64();
     let _ = std::fs::remove_dir_all(&dir);
     anyhow::ensure!(
@@ -424,9 +436,24 @@ fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
         states: fused.states_written,
         read_s,
         fuse_s,
+        write_s,
         full_s,
-        messages: log.messages.len(),
+        messages: truth_log.messages.len(),
     })
+}
+
+/// Passes on only the messages whose schema `keep` accepts.
+struct Filter<'a, S> {
+    inner: S,
+    keep: &'a dyn Fn(&str) -> bool,
+}
+
+impl<S: fusion_server::replay::ReplaySink> fusion_server::replay::ReplaySink for Filter<'_, S> {
+    fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) {
+        if (self.keep)(schema) {
+            self.inner.write(topic, schema, log_time, payload);
+        }
+    }
 }
 
 fn proc_status_kb(pid: u32, field: &str) -> Option<u64> {
