@@ -84,8 +84,9 @@ pub struct ServeArgs {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// HTTP address for the API, the live stream and the page.
-    #[arg(long, default_value = "127.0.0.1:8080")]
-    pub http: String,
+    /// [default: 127.0.0.1:8080, or `http` in the configuration file]
+    #[arg(long)]
+    pub http: Option<String>,
     /// Zenoh endpoint to listen on (repeatable).
     #[arg(long)]
     pub listen: Vec<String>,
@@ -153,9 +154,9 @@ pub struct SimRobotsArgs {
     pub scenario: String,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Robots to play (comma-separated); default every observer in the scenario.
+    /// Play only these robots (comma-separated ids); default every observer.
     #[arg(long, value_delimiter = ',')]
-    pub robots: Vec<String>,
+    pub only: Vec<String>,
     /// Match length, seconds (default: the scenario's).
     #[arg(long)]
     pub duration_s: Option<f64>,
@@ -188,6 +189,9 @@ pub fn serve_config(a: &ServeArgs) -> Result<(ServeConfig, Option<RecorderConfig
     }
     rec.max_mb = a.record_max_mb.or(rec.max_mb);
     rec.max_minutes = a.record_max_min.or(rec.max_minutes);
+    if let Some(h) = &a.http {
+        cfg.http = h.clone();
+    }
     if !a.listen.is_empty() {
         cfg.net.listen = a.listen.clone();
     }
@@ -196,6 +200,10 @@ pub fn serve_config(a: &ServeArgs) -> Result<(ServeConfig, Option<RecorderConfig
     }
     if let Some(m) = &a.mode {
         cfg.net.mode = m.clone();
+        // A client only connects (to a router): no default listening endpoint.
+        if m == "client" && a.listen.is_empty() {
+            cfg.net.listen.clear();
+        }
     }
     if a.scouting {
         cfg.net.multicast_scouting = true;
@@ -291,7 +299,7 @@ async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {
 
 async fn serve_cmd(a: ServeArgs) -> Result<()> {
     let (cfg, rec) = serve_config(&a)?;
-    let http = bind_http(&a.http).await?;
+    let http = bind_http(&cfg.http).await?;
     let log = start_log(rec)?;
     let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
     println!("http://{}/", http.local_addr()?);
@@ -338,7 +346,7 @@ async fn demo_cmd(a: DemoArgs) -> Result<()> {
         cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
     }
     let endpoint = cfg.net.listen[0].clone();
-    let http = bind_http(&a.serve.http).await?;
+    let http = bind_http(&cfg.http).await?;
     let url = format!("http://{}/", http.local_addr()?);
     let log = start_log(rec)?;
     let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
@@ -392,7 +400,7 @@ async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
     let cfg = SimRobotsConfig {
         scenario: a.scenario,
         seed: a.seed,
-        robots: a.robots,
+        robots: a.only,
         duration_s: a.duration_s,
         team_size: a.team_size,
         start: a

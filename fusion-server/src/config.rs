@@ -101,6 +101,11 @@ impl FileConfig {
             }
             cfg.server_id = id.clone();
         }
+        if let Some(h) = &self.http {
+            h.parse::<std::net::SocketAddr>()
+                .map_err(|e| ConfigError::Invalid(format!("http {h:?}: {e}")))?;
+            cfg.http = h.clone();
+        }
         if let Some(p) = &self.prefix {
             proto::KeySpace::new(p).map_err(|e| ConfigError::Invalid(e.to_string()))?;
             cfg.prefix = p.clone();
@@ -179,6 +184,7 @@ max_mb = 200
         let mut cfg = ServeConfig::default();
         f.apply(&mut cfg)?;
         assert_eq!(cfg.server_id, "pitch-a");
+        assert_eq!(cfg.http, "127.0.0.1:9000");
         assert_eq!(cfg.prefix, "lab/pitch_2");
         assert_eq!(cfg.state_rate_hz, 50.0);
         assert_eq!(cfg.net.connect, vec!["tcp/127.0.0.1:7447"]);

@@ -95,7 +95,8 @@ struct Inner {
     unpublished: Vec<Stamp>,
 }
 
-/// Rejections are logged at most this often per reason (they are always counted).
+/// Rejections are logged at most this often, all reasons together (they are always
+/// counted, by reason, in the metrics).
 const REJECT_LOG_EVERY: Duration = Duration::from_secs(5);
 
 #[derive(Debug)]

@@ -6,7 +6,7 @@
 
 use crate::engine::{Engine, EngineConfig};
 use crate::mcap_read::LogMessage;
-use crate::scoring::{fusion_config, run_fusion};
+use crate::scoring::run_fusion;
 use proto::{KeySpace, Stamp};
 use sim::score::{Summary, score, tick_count};
 use sim::truth_log::{TruthLogBuilder, TruthLogError};
@@ -182,12 +182,16 @@ pub fn replay(
     report.rejected = engine.counters().rejected.clone();
     if truth.has_run() {
         let run = truth.finish(arrivals)?;
-        let records = run_fusion(&run, fusion_config(&run), |_| true);
-        let without = run.phantom.as_ref().map(|_| {
-            run_fusion(&run, fusion_config(&run), |d: &Delivery| {
-                d.kind != ObsKind::Phantom
-            })
-        });
+        // The configured fusion, on the run's pitch.
+        let cfg = crate::core::FusionConfig {
+            pitch: run.pitch.clone(),
+            ..opts.engine.fusion.clone()
+        };
+        let records = run_fusion(&run, cfg.clone(), |_| true);
+        let without = run
+            .phantom
+            .as_ref()
+            .map(|_| run_fusion(&run, cfg.clone(), |d: &Delivery| d.kind != ObsKind::Phantom));
         let samples = score(
             &run,
             &records,

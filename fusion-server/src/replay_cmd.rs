@@ -51,6 +51,16 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
     )?;
     let mut cfg = RecorderConfig::new(&a.out);
     cfg.file_prefix = format!("sim-{}-{}", a.scenario, a.seed);
+    // The same scenario and seed make the same file: replace an earlier one.
+    if let Ok(entries) = std::fs::read_dir(&a.out) {
+        let stem = format!("{}-", cfg.file_prefix);
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with(&stem) && name.ends_with(".mcap") {
+                std::fs::remove_file(e.path())?;
+            }
+        }
+    }
     let mut sink = RecorderSink::create(cfg, run.start)?;
     let n = write_simulated(&run, &KeySpace::default(), &mut sink)?;
     let summary = sink.finish()?;
@@ -194,6 +204,12 @@ pub fn offline(a: ReplayArgs) -> Result<()> {
             "{}",
             serde_json::json!({
                 "messages": report.messages,
+                "statuses": report.statuses,
+                "rejected": report
+                    .rejected
+                    .iter()
+                    .map(|((kind, reason), n)| (format!("{kind}/{reason}"), *n))
+                    .collect::<std::collections::BTreeMap<_, _>>(),
                 "observations": report.observations,
                 "observations_accepted": report.observations_accepted,
                 "states_recorded": report.states_recorded,
@@ -232,9 +248,9 @@ pub async fn realtime(a: ReplayArgs) -> Result<()> {
     };
     let clock = ScaledClock::new(first.log_time, a.speed);
     let live = serve::shared(&cfg, Arc::new(clock), None)?;
-    let http = tokio::net::TcpListener::bind(&a.serve.http)
+    let http = tokio::net::TcpListener::bind(&cfg.http)
         .await
-        .with_context(|| format!("cannot listen for HTTP on {}", a.serve.http))?;
+        .with_context(|| format!("cannot listen for HTTP on {}", cfg.http))?;
     println!("http://{}/", http.local_addr()?);
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let mut server_stop = stop_rx;

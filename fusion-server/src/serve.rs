@@ -17,6 +17,8 @@ use zenoh::sample::SampleKind;
 #[derive(Debug, Clone)]
 pub struct ServeConfig {
     pub server_id: String,
+    /// HTTP address (the caller binds it and hands the listener to [`serve`]).
+    pub http: String,
     pub prefix: String,
     pub net: NetConfig,
     /// States published per second on `{prefix}/ball/state` and the live stream.
@@ -32,6 +34,7 @@ impl Default for ServeConfig {
     fn default() -> Self {
         ServeConfig {
             server_id: "server-1".into(),
+            http: "127.0.0.1:8080".into(),
             prefix: proto::DEFAULT_PREFIX.into(),
             net: NetConfig::listening("tcp/127.0.0.1:7447"),
             state_rate_hz: 30.0,

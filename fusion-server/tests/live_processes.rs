@@ -42,7 +42,7 @@ fn server_follows_the_simulated_ball_and_notices_a_robot_dying() {
                 SCENARIO,
                 "--seed",
                 &SEED.to_string(),
-                "--robots",
+                "--only",
                 id,
                 "--duration-s",
                 &duration,
