@@ -22,7 +22,7 @@ impl Proc {
     pub fn spawn(args: &[&str]) -> Proc {
         let mut child = Command::new(BIN)
             .args(args)
-            .env("RUST_LOG", "warn")
+            .env("RUST_LOG", "warn,zenoh=error")
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
