@@ -1,0 +1,268 @@
+use super::*;
+use proto::Pose2;
+
+/// A tiny deterministic noise source for synthetic observations.
+struct Lcg(u64);
+impl Lcg {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+    fn normal(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform().max(1e-12), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+const T0: u64 = 1_767_225_600_000_000_000;
+
+fn obs(robot: &str, seq: u64, t_s: f64, p: [f64; 2], sigma: f64) -> Observation {
+    Observation {
+        version: proto::VERSION,
+        robot_id: robot.to_string(),
+        seq,
+        camera: Camera::Left,
+        stamp: Stamp(T0).offset_secs(t_s),
+        position_m: p,
+        covariance_m2: [sigma * sigma, 0.0, 0.0, sigma * sigma],
+        confidence: 0.9,
+        robot_pose: Pose2 {
+            x_m: -1.5,
+            y_m: 0.0,
+            theta_rad: 0.0,
+        },
+        pixel: None,
+    }
+}
+
+/// A ball rolling along +x from x = −1 at 1 m/s with 0.3 m/s² deceleration, seen by
+/// three robots at 15 Hz each with 2 cm noise.
+fn rolling_observations(n_per_robot: usize) -> Vec<Observation> {
+    let mut rng = Lcg(42);
+    let mut out = Vec::new();
+    for k in 0..n_per_robot {
+        for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+            let t = k as f64 / 15.0 + r as f64 * 0.02;
+            let s = (1.0 * t - 0.15 * t * t).max(0.0);
+            let p = [-1.0 + s + 0.02 * rng.normal(), 0.3 + 0.02 * rng.normal()];
+            out.push(obs(robot, k as u64, t, p, 0.02));
+        }
+    }
+    out
+}
+
+#[test]
+fn follows_a_rolling_ball() {
+    let mut f = Fusion::new(FusionConfig::default());
+    let all = rolling_observations(30);
+    for o in &all {
+        f.ingest(o, o.stamp);
+    }
+    let t = 29.0 / 15.0 + 0.04;
+    let st = f.ball_state(Stamp(T0).offset_secs(t)).expect("a state");
+    let truth_x = -1.0 + t - 0.15 * t * t;
+    assert!(
+        (st.position_m[0] - truth_x).abs() < 0.03,
+        "{:?} vs {truth_x}",
+        st.position_m
+    );
+    assert!(
+        (st.velocity_mps[0] - (1.0 - 0.3 * t)).abs() < 0.08,
+        "{:?}",
+        st.velocity_mps
+    );
+    assert_eq!(st.status, BallStatus::Tracking);
+    assert_eq!(st.contributors.len(), 3);
+}
+
+#[test]
+fn late_observations_give_the_in_order_estimate() {
+    let ordered = rolling_observations(20);
+    let mut in_order = Fusion::new(FusionConfig::default());
+    for o in &ordered {
+        in_order.ingest(o, o.stamp);
+    }
+    // Deliver the same observations shuffled, each at most 0.4 s late.
+    let mut rng = Lcg(7);
+    let mut arrivals: Vec<(Stamp, &Observation)> = ordered
+        .iter()
+        .map(|o| (o.stamp.offset_secs(0.4 * rng.uniform()), o))
+        .collect();
+    arrivals.sort_by_key(|a| a.0);
+    let mut shuffled = Fusion::new(FusionConfig::default());
+    let mut reordered = 0;
+    for (arrival, o) in &arrivals {
+        if let Ingest::Reordered { .. } = shuffled.ingest(o, *arrival) {
+            reordered += 1;
+        }
+    }
+    assert!(reordered > 10, "the test must really reorder ({reordered})");
+    assert_eq!(shuffled.counters().too_late, 0);
+    assert_eq!(shuffled.tracker(), in_order.tracker());
+    let at = Stamp(T0).offset_secs(2.0);
+    assert_eq!(shuffled.ball_state(at), in_order.ball_state(at));
+}
+
+/// Ingests as received 50 ms after capture.
+fn ingest(f: &mut Fusion, o: &Observation) -> Ingest {
+    f.ingest(o, o.stamp.offset_secs(0.05))
+}
+
+#[test]
+fn too_late_and_duplicates_are_counted_and_dropped() {
+    let mut f = Fusion::new(FusionConfig::default());
+    assert_eq!(
+        ingest(&mut f, &obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+        Ingest::Applied
+    );
+    assert_eq!(
+        ingest(&mut f, &obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+        Ingest::Duplicate
+    );
+    assert!(matches!(
+        ingest(&mut f, &obs("b", 0, 0.3, [0.0, 0.0], 0.02)),
+        Ingest::TooLate { .. }
+    ));
+    let mut bad = obs("b", 1, 1.0, [0.0, 0.0], 0.02);
+    bad.covariance_m2 = [0.0; 4];
+    assert_eq!(ingest(&mut f, &bad), Ingest::Rejected);
+    let c = f.counters();
+    assert_eq!(
+        (c.applied, c.duplicates, c.too_late, c.rejected),
+        (1, 1, 1, 1)
+    );
+}
+
+#[test]
+fn phantom_from_one_robot_does_not_capture_the_estimate() {
+    let mut f = Fusion::new(FusionConfig::default());
+    let mut rng = Lcg(3);
+    // A ball at rest at the origin seen by a, b, c; robot c also reports a phantom at
+    // (1, 1) in every other frame.
+    for k in 0..60u64 {
+        let t = k as f64 / 15.0;
+        for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+            let p = [0.02 * rng.normal(), 0.02 * rng.normal()];
+            ingest(&mut f, &obs(robot, 2 * k, t + 0.01 * r as f64, p, 0.02));
+        }
+        if k % 2 == 0 {
+            ingest(&mut f, &obs("c", 2 * k + 1, t + 0.025, [1.0, 1.0], 0.02));
+        }
+    }
+    let st = f.ball_state(Stamp(T0).offset_secs(4.0)).expect("state");
+    assert!(
+        st.position_m[0].hypot(st.position_m[1]) < 0.03,
+        "{:?}",
+        st.position_m
+    );
+    let c = f
+        .robots()
+        .iter()
+        .find(|r| &*r.robot == "c")
+        .expect("robot c");
+    assert!(c.outlier_rate > 0.2, "{}", c.outlier_rate);
+}
+
+#[test]
+fn a_kick_is_followed_within_a_third_of_a_second() {
+    let mut f = Fusion::new(FusionConfig::default());
+    let mut rng = Lcg(11);
+    let mut seq = 0;
+    // At rest at (−1, 0) until t = 2 s, then kicked to 2 m/s along +x; 0.3 s later the
+    // estimate must be on the moving ball.
+    let truth = |t: f64| {
+        let d = (t - 2.0).max(0.0);
+        -1.0 + 2.0 * d - 0.15 * d * d
+    };
+    for k in 0..35u64 {
+        let t = k as f64 / 15.0;
+        for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+            let tt = t + 0.02 * r as f64;
+            let p = [truth(tt) + 0.02 * rng.normal(), 0.02 * rng.normal()];
+            ingest(&mut f, &obs(robot, seq, tt, p, 0.02));
+            seq += 1;
+        }
+    }
+    let at = 2.3;
+    let st = f.ball_state(Stamp(T0).offset_secs(at)).expect("state");
+    assert!(
+        (st.position_m[0] - truth(at)).abs() < 0.08,
+        "{:?} vs {}",
+        st.position_m,
+        truth(at)
+    );
+    assert!(st.velocity_mps[0] > 1.4, "{:?}", st.velocity_mps);
+}
+
+#[test]
+fn learns_the_rolling_deceleration_online() {
+    let mut f = Fusion::new(FusionConfig::default());
+    let mut rng = Lcg(5);
+    let (v0, a) = (1.2, 0.22);
+    let truth = |t: f64| {
+        let t = t.min(v0 / a);
+        -1.6 + v0 * t - 0.5 * a * t * t
+    };
+    let mut seq = 0;
+    for k in 0..60u64 {
+        let t = k as f64 / 15.0;
+        for (r, robot) in ["a", "b", "c"].iter().enumerate() {
+            let tt = t + 0.02 * r as f64;
+            let p = [truth(tt) + 0.02 * rng.normal(), 0.5 + 0.02 * rng.normal()];
+            ingest(&mut f, &obs(robot, seq, tt, p, 0.02));
+            seq += 1;
+        }
+    }
+    let st = f.ball_state(Stamp(T0).offset_secs(4.0)).expect("state");
+    let learned = st.model.rolling_decel_mps2;
+    assert!(
+        (learned - a).abs() < 0.04,
+        "learned {learned} vs true {a} (started at 0.3)"
+    );
+    assert!(st.model.decel_samples > 50);
+}
+
+#[test]
+fn observations_beyond_a_wall_are_dropped_and_counted() {
+    let mut f = Fusion::new(FusionConfig::default());
+    ingest(&mut f, &obs("a", 0, 1.0, [2.6, 0.0], 0.02));
+    assert_eq!(f.counters().outside_walls, 1);
+    assert!(f.tracker().tracks().is_empty());
+    // Just beyond the wall but within the observation's own noise: kept.
+    ingest(&mut f, &obs("a", 1, 1.1, [1.93, 0.0], 0.02));
+    assert_eq!(f.counters().outside_walls, 1);
+    assert_eq!(f.tracker().tracks().len(), 1);
+}
+
+#[test]
+fn a_robot_clock_far_ahead_is_rejected_and_harms_no_one() {
+    let mut f = Fusion::new(FusionConfig::default());
+    // Received at t = 1 s but stamped 5 s later.
+    let ahead = obs("fast", 0, 6.0, [0.0, 0.0], 0.02);
+    let out = f.ingest(&ahead, Stamp(T0).offset_secs(1.0));
+    assert!(matches!(out, Ingest::FromTheFuture { .. }), "{out:?}");
+    // Honest robots' observations at t = 1 s are still on time.
+    assert_eq!(
+        ingest(&mut f, &obs("a", 0, 1.0, [0.0, 0.0], 0.02)),
+        Ingest::Applied
+    );
+    assert_eq!(f.counters().future, 1);
+}
+
+#[test]
+fn poison_is_rejected_without_touching_the_state() {
+    let mut f = Fusion::new(FusionConfig::default());
+    let mut nan = obs("a", 0, 1.0, [f64::NAN, 0.0], 0.02);
+    assert_eq!(ingest(&mut f, &nan), Ingest::Rejected);
+    nan = obs("a", 1, 1.0, [0.0, 0.0], 0.02);
+    nan.robot_pose.theta_rad = f64::INFINITY;
+    assert_eq!(ingest(&mut f, &nan), Ingest::Rejected);
+    let mut indefinite = obs("a", 2, 1.0, [0.0, 0.0], 0.02);
+    indefinite.covariance_m2 = [1e-4, 2e-4, 2e-4, 1e-4];
+    assert_eq!(ingest(&mut f, &indefinite), Ingest::Rejected);
+    assert_eq!(f.counters().rejected, 3);
+    assert!(f.tracker().tracks().is_empty());
+}
