@@ -132,3 +132,68 @@ fn kill_9_while_recording_loses_at_most_about_a_second() {
     assert!(lost_s < 1.5, "the log ends {lost_s:.2} s before the kill");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_simulated_log_plays_back_as_if_live() {
+    let dir = temp_dir("realtime");
+    let out = std::process::Command::new(BIN)
+        .args([
+            "simulate",
+            "--scenario",
+            "team-rally",
+            "--seed",
+            "2",
+            "--duration-s",
+            "8",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .expect("simulate");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let files = logs_in(&dir);
+    assert_eq!(files.len(), 1, "{files:?}");
+    let port = fusion_server::net::free_loopback_port().expect("port");
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let file = files[0].to_string_lossy().into_owned();
+    let mut player = Proc::spawn(&[
+        "replay",
+        "--realtime",
+        "--speed",
+        "4",
+        "--http",
+        "127.0.0.1:0",
+        "--listen",
+        &endpoint,
+        &file,
+    ]);
+    let url = player.line_starting("http://", Duration::from_secs(30));
+    let addr = url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_string();
+    // The recorded robots come online and the ball is followed, on the log's own clock.
+    let state = wait_for("a replayed ball", Duration::from_secs(30), || {
+        let v = get_json(&addr, "/api/state");
+        v["ball"]["position_m"].is_array().then_some(v)
+    });
+    let robots = state["robots"].as_array().map(|r| r.len()).unwrap_or(0);
+    assert!(robots >= 2, "{state}");
+    let stamp = state["stamp"].as_u64().expect("stamp");
+    let start = sim::SimConfig::default().start;
+    let t_s = Stamp(stamp).secs_since(start);
+    assert!(
+        (0.0..10.0).contains(&t_s),
+        "the server's clock runs through the match: {t_s}"
+    );
+    // 8 s of match at 4× ends by itself.
+    let status = wait_for("the end of the log", Duration::from_secs(30), || {
+        player.child.try_wait().ok().flatten()
+    });
+    assert!(status.success());
+    let _ = std::fs::remove_dir_all(&dir);
+}
