@@ -61,9 +61,13 @@ pub struct ReplayArgs {
     /// Match log files, in order (rotated parts of one match follow each other).
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
-    /// Directory for the re-fused log (offline mode); none is written without it.
+    /// Directory for the re-fused log (offline mode); a replay of the same file replaces
+    /// its earlier one.
+    #[arg(long, default_value = "out/replay")]
+    pub out: PathBuf,
+    /// Only print the summary; write no log.
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    pub no_log: bool,
     /// Publish the recorded observations over Zenoh and serve HTTP as if live.
     #[arg(long)]
     pub realtime: bool,

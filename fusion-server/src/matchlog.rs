@@ -85,51 +85,52 @@ impl MatchLog for McapLog {
     }
 }
 
-/// A [`crate::replay::ReplaySink`] writing straight into a recorder (offline tools).
+/// A [`crate::replay::ReplaySink`] for offline tools: records go to a writer thread
+/// (compression runs beside the fusion) and are never dropped.
 #[derive(Debug)]
 pub struct RecorderSink {
-    pub recorder: crate::record::McapRecorder,
+    handle: RecorderHandle,
     schemas: HashMap<String, Arc<Schema>>,
-    /// The first write error; later writes are skipped.
-    pub error: Option<RecordError>,
+    sent: u64,
 }
 
 impl RecorderSink {
     pub fn create(cfg: RecorderConfig, start: Stamp) -> Result<Self, RecordError> {
         Ok(RecorderSink {
-            recorder: crate::record::McapRecorder::create(cfg, start)?,
+            handle: RecorderHandle::spawn(cfg, start)?,
             schemas: schemas(),
-            error: None,
+            sent: 0,
         })
     }
 
+    /// Waits for every record to be written and completes the file.
     pub fn finish(self) -> Result<RecordSummary, RecordError> {
-        match self.error {
-            Some(e) => Err(e),
-            None => self.recorder.finish(),
+        let sent = self.sent;
+        let summary = self.handle.finish()?;
+        if summary.messages < sent {
+            return Err(RecordError::Config(format!(
+                "{} of {sent} records could not be written",
+                sent - summary.messages
+            )));
         }
+        Ok(summary)
     }
 }
 
 impl crate::replay::ReplaySink for RecorderSink {
     fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) {
-        if self.error.is_some() {
-            return;
-        }
         let schema = match self.schemas.get(schema) {
             Some(s) => s.clone(),
             None => Arc::new(Schema::new(schema, b"{}".to_vec())),
         };
-        let r = Record {
+        self.sent += 1;
+        self.handle.send_waiting(Record {
             topic: topic.to_string(),
             schema,
             log_time,
             publish_time: log_time,
             payload: payload.to_vec(),
-        };
-        if let Err(e) = self.recorder.write(&r) {
-            self.error = Some(e);
-        }
+        });
     }
 }
 

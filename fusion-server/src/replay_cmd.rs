@@ -41,6 +41,21 @@ fn progress_bar(label: &'static str) -> impl FnMut(usize, usize) {
     }
 }
 
+/// Removes the logs in `dir` that an earlier run of the same command wrote (`{prefix}-….mcap`).
+fn remove_earlier(dir: &std::path::Path, prefix: &str) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let stem = format!("{prefix}-");
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with(&stem) && name.ends_with(".mcap") {
+            std::fs::remove_file(e.path())?;
+        }
+    }
+    Ok(())
+}
+
 pub fn simulate(a: SimulateArgs) -> Result<()> {
     let run = fusion_server::simrobots::simulate(
         &a.scenario,
@@ -52,15 +67,7 @@ pub fn simulate(a: SimulateArgs) -> Result<()> {
     let mut cfg = RecorderConfig::new(&a.out);
     cfg.file_prefix = format!("sim-{}-{}", a.scenario, a.seed);
     // The same scenario and seed make the same file: replace an earlier one.
-    if let Ok(entries) = std::fs::read_dir(&a.out) {
-        let stem = format!("{}-", cfg.file_prefix);
-        for e in entries.flatten() {
-            let name = e.file_name().to_string_lossy().into_owned();
-            if name.starts_with(&stem) && name.ends_with(".mcap") {
-                std::fs::remove_file(e.path())?;
-            }
-        }
-    }
+    remove_earlier(&a.out, &cfg.file_prefix)?;
     let mut sink = RecorderSink::create(cfg, run.start)?;
     let n = write_simulated(&run, &KeySpace::default(), &mut sink)?;
     let summary = sink.finish()?;
@@ -182,20 +189,32 @@ pub fn offline(a: ReplayArgs) -> Result<()> {
         state_rate_hz: cfg.state_rate_hz,
     };
     let start = messages.first().map(|m| m.log_time).unwrap_or(Stamp(0));
-    let mut sink = a
-        .out
-        .as_ref()
-        .map(|dir| {
-            let mut r = RecorderConfig::new(dir);
-            r.file_prefix = "replay".into();
-            RecorderSink::create(r, start)
-        })
-        .transpose()?;
+    let mut sink = if a.no_log {
+        None
+    } else {
+        let stem = a.files[0]
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "log".into());
+        let mut r = RecorderConfig::new(&a.out);
+        r.file_prefix = format!("replay-{stem}");
+        remove_earlier(&a.out, &r.file_prefix)?;
+        Some(RecorderSink::create(r, start)?)
+    };
     let t0 = Instant::now();
     let mut bar = progress_bar("replay");
     let report = match sink.as_mut() {
         Some(s) => replay(&messages, &opts, s, &mut bar)?,
         None => replay(&messages, &opts, &mut (), &mut bar)?,
+    };
+    let files: Vec<String> = match sink {
+        Some(s) => s
+            .finish()?
+            .files
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect(),
+        None => Vec::new(),
     };
     let wall_s = t0.elapsed().as_secs_f64();
     if a.json {
@@ -218,14 +237,13 @@ pub fn offline(a: ReplayArgs) -> Result<()> {
                 "span_s": report.span_s,
                 "wall_s": wall_s,
                 "accuracy": acc,
+                "log_files": files,
             })
         );
     } else {
         print_report(&report, wall_s);
-    }
-    if let Some(s) = sink {
-        for f in s.finish()?.files {
-            println!("replayed log: {}", f.display());
+        for f in &files {
+            println!("replayed log: {f}");
         }
     }
     Ok(())

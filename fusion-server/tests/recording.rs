@@ -80,8 +80,10 @@ fn a_recorded_match_replays_to_identical_states() {
     assert!(count("RobotStatus") > 10);
     assert!(count("BallState") > 20);
 
+    let replayed_dir = dir.join("replayed");
     let out = std::process::Command::new(BIN)
-        .args(["replay", "--json"])
+        .args(["replay", "--json", "--out"])
+        .arg(&replayed_dir)
         .arg(&files[0])
         .output()
         .expect("replay");

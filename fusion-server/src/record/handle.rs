@@ -100,6 +100,17 @@ impl RecorderHandle {
         queued
     }
 
+    /// Queues `record`, waiting while the queue is full (offline tools, which must not
+    /// lose anything). Returns false, and counts the record as dropped, when the writer
+    /// has stopped.
+    pub fn send_waiting(&self, record: Record) -> bool {
+        let queued = self.tx.as_ref().is_some_and(|tx| tx.send(record).is_ok());
+        if !queued {
+            self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        queued
+    }
+
     /// The counters so far.
     pub fn stats(&self) -> RecorderStats {
         let s = &self.shared;
