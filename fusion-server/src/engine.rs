@@ -25,7 +25,13 @@ pub enum Rejection {
     KeyMismatch { key: String, payload: String },
     #[error("the fusion core refused it: {0}")]
     Core(&'static str),
+    #[error("robot {0:?} would be more than {MAX_ROBOTS} robots")]
+    TooManyRobots(String),
 }
+
+/// Distinct robots the server keeps track of (without a roster, a flood of made-up ids
+/// must not grow its state).
+pub const MAX_ROBOTS: usize = 256;
 
 impl Rejection {
     /// A short stable label for counting rejections by reason.
@@ -38,6 +44,7 @@ impl Rejection {
             Rejection::UnknownRobot(_) => "unknown_robot",
             Rejection::KeyMismatch { .. } => "key_mismatch",
             Rejection::Core(r) => r,
+            Rejection::TooManyRobots(_) => "too_many_robots",
         }
     }
 }
@@ -187,6 +194,9 @@ impl Engine {
         }
         match &self.cfg.roster {
             Some(r) if !r.contains(robot_id) => Err(Rejection::UnknownRobot(robot_id.into())),
+            _ if self.robots.len() >= MAX_ROBOTS && !self.robots.contains_key(robot_id) => {
+                Err(Rejection::TooManyRobots(robot_id.into()))
+            }
             _ => Ok(()),
         }
     }

@@ -159,3 +159,22 @@ fn queries_answer_predictions_and_intercepts() {
         Err(QueryError::UnknownRobot("ghost".into()))
     );
 }
+
+#[test]
+fn made_up_robots_cannot_grow_the_roster_without_bound() {
+    let mut e = Engine::new(EngineConfig::default());
+    for k in 0..(MAX_ROBOTS + 10) {
+        let id = format!("r{k}");
+        let _ = e.liveliness(&id, true, at(0.0));
+    }
+    assert_eq!(e.robots(at(0.0)).len(), MAX_ROBOTS);
+    let o = obs("latecomer", 0, 0.0, 0.0);
+    let r = e.observation(Some("latecomer"), &proto::encode(&o), at(0.05));
+    assert_eq!(r.expect_err("full").reason(), "too_many_robots");
+    // Known robots still get through.
+    let o = obs("r1", 0, 0.0, 0.0);
+    assert!(
+        e.observation(Some("r1"), &proto::encode(&o), at(0.05))
+            .is_ok()
+    );
+}
