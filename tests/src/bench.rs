@@ -142,7 +142,7 @@ impl Report {
             mark(l.p99_s.is_some_and(|p| p <= 1e-3))
         ));
         out.push_str(&format!(
-            "| offline replay of a {:.0} s, {}-robot match log ({} observations; states at 30 Hz): read + re-fuse | {:.3} s + {:.3} s = {:.0}× real time | ≥ 2 000× | {} |\n",
+            "| offline replay of a {:.0} s, {}-robot match log ({} observations; states at 30 Hz), `replay --no-log`: read + re-fuse | {:.3} s + {:.3} s = {:.0}× real time | ≥ 2 000× | {} |\n",
             r.match_s,
             r.robots,
             r.observations,
@@ -152,13 +152,13 @@ impl Report {
             mark(read_fuse_x >= 2000.0)
         ));
         out.push_str(&format!(
-            "| the same, writing the re-fused log ({} states) | {:.3} s = {:.0}× real time | | |\n",
+            "| the same, writing the re-fused log ({} states), `replay` | {:.3} s = {:.0}× real time | | |\n",
             r.states,
             r.read_s + r.write_s,
             write_x
         ));
         out.push_str(&format!(
-            "| the same match with ground truth ({} messages): read, re-fuse, score | {:.3} s = {:.0}× real time | | |\n",
+            "| the same match with ground truth ({} messages), `replay --no-log`: read, re-fuse, score | {:.3} s = {:.0}× real time | | |\n",
             r.messages,
             r.full_s,
             full_x
