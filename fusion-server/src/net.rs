@@ -140,8 +140,10 @@ mod tests {
         for bad in ["127.0.0.1:7447", "tcp/127.0.0.1", "tcp/:1", "tcp/h:99999"] {
             assert!(NetConfig::listening(bad).check().is_err(), "{bad}");
         }
-        let mut c = NetConfig::default();
-        c.mode = "satellite".into();
+        let c = NetConfig {
+            mode: "satellite".into(),
+            ..NetConfig::default()
+        };
         assert!(matches!(c.check(), Err(NetError::BadMode(_))));
     }
 

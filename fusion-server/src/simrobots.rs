@@ -163,10 +163,10 @@ async fn play_robot(
             let s = status_of(&plan.track, t_s, due, sim::model::FRAME_RATE_HZ);
             let _ = status_pub.put(proto::encode(&s)).await;
             next_status = next_status.offset_secs(status_dt_s);
-        } else if let Some((_, o)) = obs.next() {
-            if obs_pub.put(proto::encode(&o)).await.is_ok() {
-                sent += 1;
-            }
+        } else if let Some((_, o)) = obs.next()
+            && obs_pub.put(proto::encode(&o)).await.is_ok()
+        {
+            sent += 1;
         }
     }
     Ok(sent)

@@ -80,7 +80,7 @@ fn observation(robot: usize, seq: u64, stamp: Stamp, t_s: f64) -> Observation {
         version: proto::VERSION,
         robot_id: format!("bench{robot}"),
         seq,
-        camera: if seq % 2 == 0 {
+        camera: if seq.is_multiple_of(2) {
             Camera::Left
         } else {
             Camera::Right
