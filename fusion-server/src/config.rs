@@ -195,6 +195,23 @@ max_mb = 200
         Ok(())
     }
 
+    /// Every TOML example in the operations guide parses and applies.
+    #[test]
+    fn the_operations_guide_examples_apply() -> Result<(), ConfigError> {
+        let guide = include_str!("../../docs/operations.md");
+        let blocks: Vec<&str> = guide
+            .split("```toml\n")
+            .skip(1)
+            .filter_map(|b| b.split("```").next())
+            .collect();
+        assert!(blocks.len() >= 2, "the guide has its examples");
+        for b in blocks {
+            let f = FileConfig::parse(b, Path::new("docs/operations.md"))?;
+            f.apply(&mut ServeConfig::default())?;
+        }
+        Ok(())
+    }
+
     #[test]
     fn mistakes_are_reported() {
         let p = Path::new("x.toml");
