@@ -3,5 +3,13 @@
 //! covariance.
 //!
 //! The perception pipeline (camera models and calibration, detection, projection) lives in
-//! this crate; today it holds only the crate's place in the workspace, and the simulated
-//! observers in `sim` stand in for it in the evaluation.
+//! this crate. Today it holds:
+//!
+//! - [`camera`]: camera models (pinhole intrinsics with Brown–Conrady or Kannala–Brandt
+//!   fisheye distortion): projection with its Jacobian, unprojection to rays, and a
+//!   validity check.
+//!
+//! Calibration, detection and floor projection are not written yet; the simulated
+//! observers in `sim` stand in for the pipeline in the evaluation.
+
+pub mod camera;
