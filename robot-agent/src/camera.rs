@@ -186,7 +186,8 @@ impl CameraModel {
     /// under 90° off the axis), when it lies where the distortion folds over and so cannot be
     /// inverted, or when anything is not finite. The fold test is local, at the point: for
     /// Brown–Conrady the radial factor, the radial derivative d(r_d)/dr and the Jacobian
-    /// determinant of the map must be positive; for the fisheye dθ_d/dθ must be. The pixel may fall outside the image; see [`Intrinsics::contains`].
+    /// determinant of the map must be positive; for the fisheye dθ_d/dθ must be. The pixel
+    /// may fall outside the image; see [`Intrinsics::contains`].
     pub fn project(&self, p_cam: [f64; 3]) -> Option<[f64; 2]> {
         let (m, _) = self.distort_point(p_cam)?;
         self.pixel_of_normalised(m)
@@ -214,9 +215,14 @@ impl CameraModel {
 
     /// The unit ray, in the camera frame, of the points that project to a pixel.
     ///
-    /// `None` when the model fails [`CameraModel::check`], when the pixel is not finite, when the inverse distortion does not
-    /// converge, or when the pixel lies beyond what the lens can image (the fisheye angle
-    /// would reach 90°, or the solution lies where the distortion folds over).
+    /// The distortion is inverted by Newton's method, and the solution accepted only if it
+    /// re-distorts to within 1e-13 (normalised, relative) of the pixel's normalised
+    /// coordinates and passes the same fold test as [`CameraModel::project`].
+    ///
+    /// `None` when the model fails [`CameraModel::check`], when the pixel is not finite, when
+    /// the inverse distortion does not converge, or when the pixel lies beyond what the lens
+    /// can image (the fisheye angle would reach 90°, or the solution lies where the
+    /// distortion folds over). Pixels outside the image are unprojected like any other.
     pub fn unproject(&self, pixel: [f64; 2]) -> Option<[f64; 3]> {
         let m = self.normalised_of_pixel(pixel)?;
         let ray = match self.distortion {
@@ -426,8 +432,9 @@ fn kannala_brandt(
 }
 
 /// The angle θ ∈ [0, π/2) off the optical axis whose distorted angle is `theta_d` > 0,
-/// by Newton's method started at θ = θ_d (clamped below π/2). `None` if it does not
-/// converge, leaves [0, π/2) or crosses a point where dθ_d/dθ ≤ 0.
+/// by Newton's method started at θ = θ_d (clamped to 0.9 · π/2); a step that would leave
+/// [0, π/2) goes halfway to the violated bound instead. `None` if it does not converge or
+/// meets a point where dθ_d/dθ ≤ 0.
 fn fisheye_inverse(theta_d: f64, coefficients: [f64; 4]) -> Option<f64> {
     const LIMIT_RAD: f64 = std::f64::consts::FRAC_PI_2;
     let tolerance = NEWTON_TOLERANCE * (1.0 + theta_d);

@@ -327,6 +327,19 @@ fn points_behind_the_camera_have_no_pixel() {
 }
 
 #[test]
+fn the_fisheye_projects_up_to_just_under_90_degrees() {
+    let model = fisheye();
+    let theta_rad = 89.9_f64.to_radians();
+    let ray = [theta_rad.sin(), 0.0, theta_rad.cos()];
+    let pixel = model.project(ray).unwrap();
+    assert!(!model.intrinsics.contains(pixel));
+    let back = model.unproject(pixel).unwrap();
+    assert!(angle_between_rad(ray, back) < 1e-9);
+    // Exactly 90° (z = 0) is not in front of the camera.
+    assert_eq!(model.project([1.0, 0.0, 0.0]), None);
+}
+
+#[test]
 fn garbage_gives_none() {
     for model in models() {
         for p in [
