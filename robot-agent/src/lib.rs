@@ -8,8 +8,19 @@
 //! - [`camera`]: camera models (pinhole intrinsics with Brown–Conrady or Kannala–Brandt
 //!   fisheye distortion): projection with its Jacobian, unprojection to rays, and a
 //!   validity check.
+//! - [`image`]: the RGB8 frame and binary mask buffers of the detection pipeline.
+//! - [`hsv`]: the first stage of the ball detector: HSV colour thresholds, the frame's
+//!   colour mask (exact, or through a lookup table), and lighting adaptation of the
+//!   thresholds.
+//! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
+//! - [`components`]: connected components of a mask with area, bounding box and centroid.
 //!
-//! Calibration, detection and floor projection are not written yet; the simulated
-//! observers in `sim` stand in for the pipeline in the evaluation.
+//! The later detection stages (ball fitting and scoring), calibration and floor projection
+//! are not written yet; the simulated observers in `sim` stand in for the pipeline in the
+//! evaluation.
 
 pub mod camera;
+pub mod components;
+pub mod hsv;
+pub mod image;
+pub mod morphology;

@@ -1,0 +1,104 @@
+//! Tests of the morphology: specks and holes on a disc, and the running-count passes
+//! against brute force on random masks.
+
+#![allow(clippy::unwrap_used)]
+
+use super::*;
+use proptest::prelude::*;
+
+const W: u32 = 160;
+const H: u32 = 120;
+const CENTRE: [f64; 2] = [70.3, 55.7];
+const RADIUS: f64 = 20.0;
+
+fn in_disc(x: u32, y: u32) -> bool {
+    (f64::from(x) - CENTRE[0]).hypot(f64::from(y) - CENTRE[1]) <= RADIUS
+}
+
+/// The mask of a disc of radius 20 px centred at (70.3, 55.7) on a 160×120 mask.
+fn disc_mask() -> Mask {
+    let mut m = Mask::zeros(W, H).unwrap();
+    for y in 0..H {
+        for x in 0..W {
+            m.set(x, y, in_disc(x, y));
+        }
+    }
+    m
+}
+
+#[test]
+fn opening_removes_specks_and_closing_fills_holes() {
+    let disc = disc_mask();
+    let mut specked = disc.clone();
+    for (x, y) in [
+        (5, 5),
+        (150, 100),
+        (100, 10),
+        (101, 11),
+        (130, 60),
+        (131, 60),
+        (130, 61),
+    ] {
+        specked.set(x, y, true);
+    }
+    let opened = open(&specked, 2);
+    for (x, y) in [(5, 5), (150, 100), (100, 10), (101, 11), (130, 60)] {
+        assert!(!opened.get(x, y));
+    }
+    // Opening never adds pixels and keeps the disc's bulk.
+    for (o, s) in opened.data().iter().zip(specked.data()) {
+        assert!(o <= s);
+    }
+    assert!(opened.count() as f64 > 0.97 * disc.count() as f64);
+
+    let mut holed = disc.clone();
+    let holes = [(70, 55), (71, 55), (60, 50), (80, 62), (81, 63)];
+    for &(x, y) in &holes {
+        holed.set(x, y, false);
+    }
+    let closed = close(&holed, 1);
+    for &(x, y) in &holes {
+        assert!(closed.get(x, y));
+    }
+    for (c, s) in closed.data().iter().zip(holed.data()) {
+        assert!(c >= s);
+    }
+    assert_eq!(open(&disc, 0), disc);
+    assert_eq!(close(&disc, 0), disc);
+}
+
+/// Brute-force erosion or dilation with the clipped square window.
+fn brute(m: &Mask, r: u32, erode: bool) -> Mask {
+    let (w, h) = (m.width() as i64, m.height() as i64);
+    let mut out = Mask::zeros(m.width(), m.height()).unwrap();
+    let r = i64::from(r);
+    for y in 0..h {
+        for x in 0..w {
+            let mut all = true;
+            let mut any = false;
+            for yy in (y - r).max(0)..=(y + r).min(h - 1) {
+                for xx in (x - r).max(0)..=(x + r).min(w - 1) {
+                    let on = m.get(xx as u32, yy as u32);
+                    all &= on;
+                    any |= on;
+                }
+            }
+            out.set(x as u32, y as u32, if erode { all } else { any });
+        }
+    }
+    out
+}
+
+proptest! {
+    #[test]
+    fn morphology_matches_brute_force(
+        w in 1u32..14,
+        h in 1u32..14,
+        bits in proptest::collection::vec(0u8..2, 196),
+        radius in 0u32..6,
+    ) {
+        let m = Mask::new(w, h, bits[..(w * h) as usize].to_vec()).unwrap();
+        prop_assert_eq!(erode(&m, radius), brute(&m, radius, true));
+        prop_assert_eq!(dilate(&m, radius), brute(&m, radius, false));
+    }
+}
