@@ -8,45 +8,55 @@
 
 use crate::image::Mask;
 
-/// The two elementary operations.
-#[derive(Clone, Copy)]
-enum Op {
-    /// Keep a pixel when every pixel of its window is selected.
-    Erode,
-    /// Select a pixel when any pixel of its window is selected.
-    Dilate,
-}
-
-impl Op {
-    #[inline]
-    fn decide(self, count: u32, window: u32) -> u8 {
-        match self {
-            Op::Erode => u8::from(count == window),
-            Op::Dilate => u8::from(count > 0),
-        }
+/// Whether a window with `count` selected pixels out of `window` gives a selected pixel:
+/// all of them for erosion (`ERODE`), any of them for dilation.
+#[inline(always)]
+fn decide<const ERODE: bool>(count: u32, window: u32) -> u8 {
+    if ERODE {
+        u8::from(count == window)
+    } else {
+        u8::from(count != 0)
     }
 }
 
-/// One operation as a horizontal pass then a vertical pass.
-fn apply(mask: &Mask, radius_px: u32, op: Op) -> Mask {
+/// One operation as a horizontal pass then a vertical pass; erosion when `ERODE`, dilation
+/// otherwise.
+fn apply<const ERODE: bool>(mask: &Mask, radius_px: u32) -> Mask {
     let (w, h) = (mask.width() as usize, mask.height() as usize);
     if radius_px == 0 || w == 0 || h == 0 {
         return mask.clone();
     }
-    let r = radius_px as usize;
+    // A radius beyond the mask's size acts like one just reaching across it.
+    let r = (radius_px as usize).min(w.max(h));
     let src = mask.data();
 
-    // Horizontal pass: prefix sums along each row.
+    // Horizontal pass: prefix sums along each row; the window [x − r, x + r] is clipped
+    // only within r of either end, so the middle runs without clipping.
     let mut horizontal = vec![0u8; w * h];
     let mut prefix = vec![0u32; w + 1];
+    let full = (2 * r + 1) as u32;
     for (row_in, row_out) in src.chunks_exact(w).zip(horizontal.chunks_exact_mut(w)) {
-        for (x, &b) in row_in.iter().enumerate() {
-            prefix[x + 1] = prefix[x] + u32::from(b);
+        let mut sum = 0u32;
+        for (p, &b) in prefix[1..].iter_mut().zip(row_in) {
+            sum += u32::from(b);
+            *p = sum;
         }
-        for (x, out) in row_out.iter_mut().enumerate() {
+        let edge = r.min(w);
+        let middle_end = w.saturating_sub(r).max(edge);
+        for (x, out) in row_out[..edge].iter_mut().enumerate() {
+            let b = (x + r + 1).min(w);
+            *out = decide::<ERODE>(prefix[b], b as u32);
+        }
+        if w > 2 * r {
+            let ahead = &prefix[2 * r + 1..];
+            for ((out, &hi), &lo) in row_out[edge..middle_end].iter_mut().zip(ahead).zip(&prefix) {
+                *out = decide::<ERODE>(hi - lo, full);
+            }
+        }
+        for (x, out) in row_out.iter_mut().enumerate().skip(middle_end) {
             let a = x.saturating_sub(r);
             let b = (x + r + 1).min(w);
-            *out = op.decide(prefix[b] - prefix[a], (b - a) as u32);
+            *out = decide::<ERODE>(prefix[b] - prefix[a], (b - a) as u32);
         }
     }
 
@@ -59,7 +69,7 @@ fn apply(mask: &Mask, radius_px: u32, op: Op) -> Mask {
             *c += u32::from(b);
         }
     }
-    for y in 0..h {
+    for (y, out_row) in out.chunks_exact_mut(w).enumerate() {
         if y + r < h {
             for (c, &b) in counts.iter_mut().zip(row(y + r)) {
                 *c += u32::from(b);
@@ -71,8 +81,8 @@ fn apply(mask: &Mask, radius_px: u32, op: Op) -> Mask {
             }
         }
         let window = ((y + r + 1).min(h) - y.saturating_sub(r)) as u32;
-        for (o, &c) in out[y * w..(y + 1) * w].iter_mut().zip(&counts) {
-            *o = op.decide(c, window);
+        for (o, &c) in out_row.iter_mut().zip(&counts) {
+            *o = decide::<ERODE>(c, window);
         }
     }
     Mask::from_parts_unchecked(mask.width(), mask.height(), out)
@@ -80,12 +90,12 @@ fn apply(mask: &Mask, radius_px: u32, op: Op) -> Mask {
 
 /// Erosion: a pixel stays selected when every pixel of its clipped window is selected.
 pub fn erode(mask: &Mask, radius_px: u32) -> Mask {
-    apply(mask, radius_px, Op::Erode)
+    apply::<true>(mask, radius_px)
 }
 
 /// Dilation: a pixel becomes selected when any pixel of its clipped window is selected.
 pub fn dilate(mask: &Mask, radius_px: u32) -> Mask {
-    apply(mask, radius_px, Op::Dilate)
+    apply::<false>(mask, radius_px)
 }
 
 /// Opening (erosion then dilation): removes specks and strands narrower than
