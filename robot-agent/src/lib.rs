@@ -8,8 +8,10 @@
 //! - [`camera`]: camera models (pinhole intrinsics with Brown–Conrady or Kannala–Brandt
 //!   fisheye distortion): projection with its Jacobian, unprojection to rays, and a
 //!   validity check.
+//! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
 //!
 //! Calibration, detection and floor projection are not written yet; the simulated
 //! observers in `sim` stand in for the pipeline in the evaluation.
 
 pub mod camera;
+pub mod hough;
