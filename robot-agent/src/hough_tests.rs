@@ -243,7 +243,10 @@ proptest! {
         prop_assert_eq!(result.is_ok(), length_ok);
         for circle in result.unwrap_or_default() {
             prop_assert!(circle.score.is_finite() && circle.radius_px.is_finite());
-            prop_assert!(circle.center_px[0] >= -1.0 && circle.center_px[1] >= -1.0);
+            let margin = MAX_FIT_SHIFT_PX + 1.0;
+            prop_assert!(circle.center_px[0] >= -margin && circle.center_px[1] >= -margin);
+            prop_assert!(circle.center_px[0] <= width as f64 + margin);
+            prop_assert!(circle.center_px[1] <= height as f64 + margin);
         }
     }
 }
