@@ -14,13 +14,15 @@
 //!   thresholds.
 //! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
 //! - [`components`]: connected components of a mask with area, bounding box and centroid.
+//! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
 //!
-//! The later detection stages (ball fitting and scoring), calibration and floor projection
-//! are not written yet; the simulated observers in `sim` stand in for the pipeline in the
-//! evaluation.
+//! The later detection stages (HOG + SVM filter, colour check, world validation),
+//! calibration and floor projection are not written yet; the simulated observers in `sim`
+//! stand in for the pipeline in the evaluation.
 
 pub mod camera;
 pub mod components;
+pub mod hough;
 pub mod hsv;
 pub mod image;
 pub mod morphology;
