@@ -305,19 +305,16 @@ impl Engine {
         self.fusion.ball_state(at)
     }
 
+    /// Pose from its latest status, else from its latest observation.
     fn robot_pose(&self, robot_id: &str) -> Option<Pose2> {
-        let status = self
-            .robots
-            .get(robot_id)
-            .and_then(|r| r.status.as_ref())
-            .map(|s| (s.stamp, s.pose));
-        let from_obs = self
-            .fusion
-            .robots()
-            .iter()
-            .find(|t| &*t.robot == robot_id)
-            .map(|t| t.pose);
-        status.map(|(_, p)| p).or(from_obs)
+        let status = self.robots.get(robot_id).and_then(|r| r.status.as_ref());
+        status.map(|s| s.pose).or_else(|| {
+            self.fusion
+                .robots()
+                .iter()
+                .find(|t| &*t.robot == robot_id)
+                .map(|t| t.pose)
+        })
     }
 
     /// Every robot heard of, by id.

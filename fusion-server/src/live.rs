@@ -103,6 +103,8 @@ const REJECT_LOG_EVERY: Duration = Duration::from_secs(5);
 pub struct Live {
     inner: Mutex<Inner>,
     pub keys: KeySpace,
+    /// `{prefix}/ball/state`, the topic states are logged under.
+    state_key: String,
     pub clock: Arc<dyn Clock>,
     pub stats: ShellStats,
     /// One frame per published state; slow readers lose the oldest frames.
@@ -130,6 +132,7 @@ impl Live {
                 engine,
                 unpublished: Vec::new(),
             }),
+            state_key: keys.ball_state(),
             keys,
             clock,
             stats: ShellStats::default(),
@@ -223,13 +226,13 @@ impl Live {
 
     /// Takes the state to publish now: its wire payload and the live-stream frame (when
     /// `frame` is asked for and someone is watching). `None` until a ball has been seen.
-    pub fn take_state_with(&self, frame: bool) -> Option<(Vec<u8>, Option<Arc<str>>)> {
+    pub fn take_state(&self, frame: bool) -> Option<(Vec<u8>, Option<Arc<str>>)> {
         let mut inner = self.lock();
         let now = self.clock.now();
         let state = inner.engine.ball_state(now)?;
         let payload = proto::encode(&state);
         if let Some(log) = &self.log {
-            log.log(LogKind::BallState, &self.keys.ball_state(), now, &payload);
+            log.log(LogKind::BallState, &self.state_key, now, &payload);
         }
         let arrivals = std::mem::take(&mut inner.unpublished);
         let frame = (frame && self.stream.receiver_count() > 0).then(|| {
@@ -251,13 +254,6 @@ impl Live {
         Some((payload, frame))
     }
 
-    /// [`Live::take_state_with`] a frame, whether or not anyone is watching.
-    pub fn take_state(&self) -> Option<(Vec<u8>, Arc<str>)> {
-        let (payload, frame) = self.take_state_with(false)?;
-        let frame = frame.unwrap_or_else(|| self.view_json().into());
-        Some((payload, frame))
-    }
-
     /// Hands the Zenoh publisher of `{prefix}/ball/state` over (once).
     pub fn set_publisher(&self, p: zenoh::pubsub::Publisher<'static>) {
         let _ = self.publisher.set(p);
@@ -267,7 +263,7 @@ impl Live {
     /// browsers get the regular ticks, not every update), from the calling thread.
     pub fn publish_now(&self, stream: bool) {
         use zenoh::Wait;
-        if let Some((payload, frame)) = self.take_state_with(stream) {
+        if let Some((payload, frame)) = self.take_state(stream) {
             if let Some(p) = self.publisher.get()
                 && let Err(e) = p.put(payload).wait()
             {

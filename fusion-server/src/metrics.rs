@@ -102,7 +102,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let mut out = String::with_capacity(4096);
     let c = engine.counters();
     let core = engine.fusion().counters();
-    let simple: [(&str, &str, &str, u64); 11] = [
+    let simple: [(&str, &str, &str, u64); 12] = [
         (
             "rf_observations_accepted_total",
             "counter",
@@ -169,23 +169,17 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "Messages written to the match log.",
             shell.recorded.load(Relaxed),
         ),
+        (
+            "rf_record_dropped_total",
+            "counter",
+            "Messages the match log could not keep up with.",
+            shell.record_dropped.load(Relaxed),
+        ),
     ];
     for (name, kind, help, v) in simple {
         family(&mut out, name, kind, help);
         let _ = writeln!(out, "{name} {v}");
     }
-    family(
-        &mut out,
-        "rf_record_dropped_total",
-        "counter",
-        "Messages the match log could not keep up with.",
-    );
-    let _ = writeln!(
-        out,
-        "rf_record_dropped_total {}",
-        shell.record_dropped.load(Relaxed)
-    );
-
     family(
         &mut out,
         "rf_messages_rejected_total",

@@ -63,6 +63,21 @@ fn buffer_len(width: u32, height: u32, channels: usize) -> usize {
         .unwrap_or(usize::MAX)
 }
 
+/// Checks that `data_len` bytes make a `width × height` buffer of `channels` bytes per pixel.
+fn check_len(width: u32, height: u32, channels: usize, data_len: usize) -> Result<(), ImageError> {
+    let expected = buffer_len(width, height, channels);
+    if data_len != expected {
+        return Err(ImageError::DataLength {
+            width,
+            height,
+            channels,
+            expected,
+            actual: data_len,
+        });
+    }
+    Ok(())
+}
+
 /// A camera frame: 8-bit red, green and blue per pixel, row-major, 3 bytes per pixel.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RgbImage {
@@ -75,16 +90,7 @@ impl RgbImage {
     /// Builds an image from its width and height in pixels and its row-major RGB8 bytes;
     /// fails unless `data.len() == width × height × 3`.
     pub fn new(width: u32, height: u32, data: Vec<u8>) -> Result<Self, ImageError> {
-        let expected = buffer_len(width, height, 3);
-        if data.len() != expected {
-            return Err(ImageError::DataLength {
-                width,
-                height,
-                channels: 3,
-                expected,
-                actual: data.len(),
-            });
-        }
+        check_len(width, height, 3, data.len())?;
         Ok(Self {
             width,
             height,
@@ -152,16 +158,7 @@ impl Mask {
     /// Builds a mask from its width and height in pixels and its row-major bytes; fails
     /// unless `data.len() == width × height` and every byte is 0 or 1.
     pub fn new(width: u32, height: u32, data: Vec<u8>) -> Result<Self, ImageError> {
-        let expected = buffer_len(width, height, 1);
-        if data.len() != expected {
-            return Err(ImageError::DataLength {
-                width,
-                height,
-                channels: 1,
-                expected,
-                actual: data.len(),
-            });
-        }
+        check_len(width, height, 1, data.len())?;
         if let Some((index, &value)) = data.iter().enumerate().find(|&(_, &b)| b > 1) {
             return Err(ImageError::NotBinary { index, value });
         }

@@ -26,3 +26,5 @@ pub mod hough;
 pub mod hsv;
 pub mod image;
 pub mod morphology;
+#[cfg(test)]
+mod test_fixtures;

@@ -149,8 +149,9 @@ async fn the_stream_pushes_states_and_a_stuck_client_only_loses_frames() -> anyh
     while live.stats.ws_clients.load(Relaxed) == 0 {
         tokio::task::yield_now().await;
     }
-    let (_, state) = live.take_state().expect("a state");
-    live.broadcast(state);
+    // The client is subscribed, so the state comes with its stream frame.
+    let (_, state) = live.take_state(true).expect("a state");
+    live.broadcast(state.expect("a frame for the watching client"));
     let next = ws.next().await.expect("a frame")?;
     assert!(next.to_text()?.contains("\"ball\""));
     assert_eq!(live.stats.states_published.load(Relaxed), 1);

@@ -231,6 +231,33 @@ async fn server_throughput(n: u64) -> Result<Throughput> {
     })
 }
 
+/// Publishes `rate_hz` messages a second for `seconds`; `make(k)` gives the k-th payload
+/// and its tag. Returns, per message, the instant just before its `put` and its tag.
+async fn paced(
+    publ: &zenoh::pubsub::Publisher<'_>,
+    rate_hz: f64,
+    seconds: f64,
+    mut make: impl FnMut(u64) -> (Vec<u8>, u64),
+) -> Result<Vec<(Instant, u64)>> {
+    let n = (rate_hz * seconds) as u64;
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let mut sent = Vec::with_capacity(n as usize);
+    let t0 = Instant::now();
+    for k in 0..n {
+        let due = t0 + period * k as u32;
+        if due > Instant::now() {
+            tokio::time::sleep_until(due.into()).await;
+        }
+        let (payload, tag) = make(k);
+        let at = Instant::now();
+        publ.put(payload)
+            .await
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        sent.push((at, tag));
+    }
+    Ok(sent)
+}
+
 /// Publish → state latency at `rate_hz` for `seconds`, states published on update.
 async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
     let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
@@ -261,26 +288,13 @@ async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     tokio::time::sleep(Duration::from_millis(300)).await;
-    let n = (rate_hz * seconds) as u64;
-    let period = Duration::from_secs_f64(1.0 / rate_hz);
-    let mut sent: Vec<(Instant, u64)> = Vec::with_capacity(n as usize);
-    let t0 = Instant::now();
     let start = SystemClock.now();
-    for k in 0..n {
-        let due = t0 + period * k as u32;
-        let now = Instant::now();
-        if due > now {
-            tokio::time::sleep_until(due.into()).await;
-        }
+    let sent = paced(&publ, rate_hz, seconds, |k| {
         let stamp = SystemClock.now();
         let o = observation(0, k, stamp, stamp.secs_since(start));
-        let payload = proto::encode(&o);
-        let at = Instant::now();
-        publ.put(payload)
-            .await
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        sent.push((at, stamp.0));
-    }
+        (proto::encode(&o), stamp.0)
+    })
+    .await?;
     tokio::time::sleep(Duration::from_millis(300)).await;
     let _ = tx.close().await;
     let _ = stop.send(true);
@@ -344,31 +358,19 @@ async fn raw_echo_latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     tokio::time::sleep(Duration::from_millis(300)).await;
-    let n = (rate_hz * seconds) as u64;
-    let period = Duration::from_secs_f64(1.0 / rate_hz);
-    let mut sent = Vec::with_capacity(n as usize);
-    let t0 = Instant::now();
-    for k in 0..n {
-        let due = t0 + period * k as u32;
-        if due > Instant::now() {
-            tokio::time::sleep_until(due.into()).await;
-        }
+    let sent = paced(&ping, rate_hz, seconds, |k| {
         let mut payload = k.to_le_bytes().to_vec();
         payload.resize(230, b' ');
-        let at = Instant::now();
-        ping.put(payload)
-            .await
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        sent.push(at);
-    }
+        (payload, k)
+    })
+    .await?;
     tokio::time::sleep(Duration::from_millis(300)).await;
     let got: std::collections::HashMap<u64, Instant> =
         seen_rx.try_iter().map(|(t, k)| (k, t)).collect();
     let lat_s = sent
         .iter()
-        .enumerate()
-        .filter_map(|(k, at)| {
-            got.get(&(k as u64))
+        .filter_map(|(at, k)| {
+            got.get(k)
                 .map(|t| t.saturating_duration_since(*at).as_secs_f64())
         })
         .collect();
