@@ -10,6 +10,7 @@
 mod codec;
 mod keys;
 mod messages;
+pub mod miro;
 mod pitch;
 pub mod schema;
 mod stamp;
