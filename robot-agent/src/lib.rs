@@ -25,6 +25,8 @@ pub mod components;
 pub mod hough;
 pub mod hsv;
 pub mod image;
+pub mod kinematics;
 pub mod morphology;
+pub mod projection;
 #[cfg(test)]
 mod test_fixtures;
