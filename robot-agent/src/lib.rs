@@ -22,6 +22,7 @@
 
 pub mod camera;
 pub mod components;
+pub mod detect;
 pub mod hough;
 pub mod hsv;
 pub mod image;
