@@ -28,6 +28,7 @@ pub mod hsv;
 pub mod image;
 pub mod kinematics;
 pub mod morphology;
+pub mod pipeline;
 pub mod projection;
 #[cfg(test)]
 mod test_fixtures;

@@ -1,0 +1,225 @@
+//! One camera frame to at most one ball sighting on the floor: detection, projection and
+//! world validation.
+//!
+//! Each candidate circle from the [`Detector`] is projected onto the floor
+//! ([`crate::projection`]) and checked against the world:
+//!
+//! - the floor point must lie on the pitch, give or take a margin (a ball cannot be beyond
+//!   the walls; a lamp or a robot's top projects far away);
+//! - the distance implied by the ball's image radius must agree with the ground-plane range
+//!   (something round of the ball's colour but higher up or of another size does not);
+//! - when the team's shared ball state is fresh, the point must not be implausibly far from
+//!   it, allowing for the state's covariance, the sighting's covariance and how far the ball
+//!   could have rolled since.
+//!
+//! Of the candidates that pass, the most probable is the frame's sighting, and its
+//! classifier probability (calibrated by the classifier) is the sighting's confidence.
+//! Rejections are kept with their reasons so the agent can count them.
+
+use crate::camera::CameraModel;
+use crate::detect::{Candidate, CandidateClassifier, DetectError, Detector, StageClock};
+use crate::hough::Circle;
+use crate::image::RgbImage;
+use crate::projection::{
+    FloorPoint, ProjectionError, ProjectionNoise, distance_from_image_radius, project_ball,
+};
+use proto::{Camera, HeadJoints, Pitch, Pose2};
+use serde::{Deserialize, Serialize};
+
+/// Settings of projection and world validation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValidationConfig {
+    /// How far beyond the pitch's inner edge a floor point may lie, metres.
+    pub pitch_margin_m: f64,
+    /// Accepted range of (distance from the image radius) / (ground-plane distance).
+    pub radius_ratio_min: f64,
+    pub radius_ratio_max: f64,
+    /// Candidates below this probability are not balls.
+    pub min_probability: f64,
+    /// Mahalanobis distance beyond which a sighting contradicts the shared state.
+    pub shared_gate: f64,
+    /// Fastest the ball is taken to roll when widening the shared state's gate, m/s.
+    pub shared_max_speed_mps: f64,
+    /// A shared state older than this is not used, seconds.
+    pub shared_max_age_s: f64,
+}
+
+impl Default for ValidationConfig {
+    fn default() -> Self {
+        ValidationConfig {
+            pitch_margin_m: 0.15,
+            radius_ratio_min: 0.6,
+            radius_ratio_max: 1.6,
+            min_probability: 0.5,
+            shared_gate: 5.0,
+            shared_max_speed_mps: 3.0,
+            shared_max_age_s: 1.0,
+        }
+    }
+}
+
+/// The team's ball estimate, as far as validation needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SharedBall {
+    /// Predicted to the frame's capture time, field frame, metres.
+    pub position_m: [f64; 2],
+    /// Row-major 2×2 position covariance, square metres.
+    pub covariance_m2: [f64; 4],
+    /// Seconds between the shared state's stamp and the frame's capture.
+    pub age_s: f64,
+}
+
+/// What a camera frame is processed with.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameContext<'a> {
+    pub camera: Camera,
+    pub model: &'a CameraModel,
+    pub pose: Pose2,
+    /// Row-major 3×3 covariance of (x, y, θ).
+    pub pose_covariance: [f64; 9],
+    pub head: HeadJoints,
+    pub pitch: &'a Pitch,
+    pub shared: Option<SharedBall>,
+}
+
+/// Why a candidate circle is not the frame's ball.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Rejection {
+    LowProbability { probability: f64 },
+    Projection(ProjectionError),
+    OffPitch { outside_m: f64 },
+    RadiusMismatch { ratio: f64 },
+    FarFromShared { mahalanobis: f64 },
+}
+
+impl Rejection {
+    /// A short name for counters.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Rejection::LowProbability { .. } => "low_probability",
+            Rejection::Projection(_) => "projection",
+            Rejection::OffPitch { .. } => "off_pitch",
+            Rejection::RadiusMismatch { .. } => "radius_mismatch",
+            Rejection::FarFromShared { .. } => "far_from_shared",
+        }
+    }
+}
+
+/// A validated ball in one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sighting {
+    pub circle: Circle,
+    /// The classifier's probability that this is the ball.
+    pub confidence: f64,
+    pub floor: FloorPoint,
+}
+
+/// The outcome of one frame.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrameResult {
+    pub sighting: Option<Sighting>,
+    pub rejected: Vec<(Circle, Rejection)>,
+}
+
+/// Detection, projection and validation of one camera frame.
+#[allow(clippy::too_many_arguments)]
+pub fn process_frame(
+    detector: &Detector,
+    classifier: &dyn CandidateClassifier,
+    noise: &ProjectionNoise,
+    validation: &ValidationConfig,
+    image: &RgbImage,
+    ctx: &FrameContext<'_>,
+    clock: &mut dyn StageClock,
+) -> Result<FrameResult, DetectError> {
+    let candidates = detector.detect(image, classifier, clock)?;
+    let mut result = FrameResult::default();
+    for candidate in candidates {
+        match validate(candidate, noise, validation, ctx) {
+            Ok(sighting) if result.sighting.is_none() => result.sighting = Some(sighting),
+            // Candidates come most probable first: later valid ones are runners-up.
+            Ok(_) => {}
+            Err(why) => result.rejected.push((candidate.circle, why)),
+        }
+    }
+    clock.mark("project");
+    Ok(result)
+}
+
+fn validate(
+    candidate: Candidate,
+    noise: &ProjectionNoise,
+    cfg: &ValidationConfig,
+    ctx: &FrameContext<'_>,
+) -> Result<Sighting, Rejection> {
+    if candidate.probability < cfg.min_probability {
+        return Err(Rejection::LowProbability {
+            probability: candidate.probability,
+        });
+    }
+    let circle = candidate.circle;
+    let ball_radius_m = ctx.pitch.ball_radius_m;
+    let floor = project_ball(
+        ctx.model,
+        ctx.camera,
+        circle.center_px,
+        circle.radius_px,
+        &ctx.pose,
+        &ctx.pose_covariance,
+        &ctx.head,
+        ball_radius_m,
+        noise,
+    )
+    .map_err(Rejection::Projection)?;
+    let outside_m = ctx.pitch.outside_distance_m(floor.position_m);
+    if outside_m > cfg.pitch_margin_m {
+        return Err(Rejection::OffPitch { outside_m });
+    }
+    if let Some(seen_m) =
+        distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
+    {
+        let cam = crate::kinematics::camera_pose(&ctx.pose, &ctx.head, ctx.camera);
+        let drop_m = cam.centre_m.z - ball_radius_m;
+        let ground_m = floor.range_m.hypot(drop_m);
+        let ratio = seen_m / ground_m;
+        if !(cfg.radius_ratio_min..=cfg.radius_ratio_max).contains(&ratio) {
+            return Err(Rejection::RadiusMismatch { ratio });
+        }
+    }
+    if let Some(shared) = ctx.shared.filter(|s| s.age_s <= cfg.shared_max_age_s) {
+        let mahalanobis = shared_distance(&shared, &floor, cfg.shared_max_speed_mps);
+        if mahalanobis > cfg.shared_gate {
+            return Err(Rejection::FarFromShared { mahalanobis });
+        }
+    }
+    Ok(Sighting {
+        circle,
+        confidence: candidate.probability,
+        floor,
+    })
+}
+
+/// Mahalanobis distance between a floor point and the shared ball, with the gate widened
+/// isotropically by how far the ball could have rolled since the shared state.
+fn shared_distance(shared: &SharedBall, floor: &FloorPoint, max_speed_mps: f64) -> f64 {
+    let roll = (max_speed_mps * shared.age_s.max(0.0)).powi(2);
+    let c = [
+        shared.covariance_m2[0] + floor.covariance_m2[0] + roll,
+        shared.covariance_m2[1] + floor.covariance_m2[1],
+        shared.covariance_m2[2] + floor.covariance_m2[2],
+        shared.covariance_m2[3] + floor.covariance_m2[3] + roll,
+    ];
+    let det = c[0] * c[3] - c[1] * c[2];
+    let dx = floor.position_m[0] - shared.position_m[0];
+    let dy = floor.position_m[1] - shared.position_m[1];
+    if !(det > 0.0 && det.is_finite()) {
+        return f64::INFINITY;
+    }
+    let d2 = (c[3] * dx * dx - (c[1] + c[2]) * dx * dy + c[0] * dy * dy) / det;
+    d2.max(0.0).sqrt()
+}
+
+#[cfg(test)]
+#[path = "pipeline_tests.rs"]
+mod tests;

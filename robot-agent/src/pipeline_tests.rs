@@ -1,0 +1,151 @@
+//! Tests of detection + projection + validation on frames drawn through a known camera.
+
+#![allow(clippy::unwrap_used)]
+
+use super::*;
+use crate::camera::{Distortion, Intrinsics};
+use crate::detect::{DetectorConfig, HoughOnly, NoClock};
+use crate::kinematics::camera_pose;
+use nalgebra::Vector3;
+use proto::miro::{DEFAULT_LIFT_RAD, DEFAULT_PITCH_RAD};
+
+fn lens() -> CameraModel {
+    CameraModel {
+        intrinsics: Intrinsics {
+            fx_px: 344.0,
+            fy_px: 344.0,
+            cx_px: 320.0,
+            cy_px: 180.0,
+            width_px: 640,
+            height_px: 360,
+        },
+        distortion: Distortion::KannalaBrandt {
+            k1: -0.1,
+            k2: 0.005,
+            k3: 0.0,
+            k4: 0.0,
+        },
+    }
+}
+
+fn head() -> HeadJoints {
+    HeadJoints {
+        lift_rad: DEFAULT_LIFT_RAD,
+        yaw_rad: 0.0,
+        pitch_rad: DEFAULT_PITCH_RAD,
+    }
+}
+
+/// A grey frame with an orange disc where a ball of `radius_m` at floor point `p` appears
+/// (drawn `scale` times too big to fake a wrong-sized object).
+fn frame(pose: &Pose2, p: [f64; 2], radius_m: f64, scale: f64) -> RgbImage {
+    let lens = lens();
+    let cam = camera_pose(pose, &head(), Camera::Left);
+    let q = cam.point_in_camera(Vector3::new(p[0], p[1], radius_m));
+    let centre = lens.project([q.x, q.y, q.z]).unwrap();
+    let alpha = (radius_m / q.norm()).asin();
+    let side = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), alpha) * q;
+    let edge = lens.project([side.x, side.y, side.z]).unwrap();
+    let r = (edge[0] - centre[0]).hypot(edge[1] - centre[1]) * scale;
+    let mut data = Vec::with_capacity(640 * 360 * 3);
+    for y in 0..360 {
+        for x in 0..640 {
+            let d = (f64::from(x) - centre[0]).hypot(f64::from(y) - centre[1]);
+            data.extend_from_slice(if d <= r {
+                &[235, 120, 30]
+            } else {
+                &[120, 118, 112]
+            });
+        }
+    }
+    RgbImage::new(640, 360, data).unwrap()
+}
+
+fn run(pose: Pose2, image: &RgbImage, shared: Option<SharedBall>) -> FrameResult {
+    let pitch = Pitch::default();
+    let lens = lens();
+    let ctx = FrameContext {
+        camera: Camera::Left,
+        model: &lens,
+        pose,
+        pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4],
+        head: head(),
+        pitch: &pitch,
+        shared,
+    };
+    let detector = Detector::new(DetectorConfig::default()).unwrap();
+    process_frame(
+        &detector,
+        &HoughOnly,
+        &ProjectionNoise::default(),
+        &ValidationConfig::default(),
+        image,
+        &ctx,
+        &mut NoClock,
+    )
+    .unwrap()
+}
+
+const POSE: Pose2 = Pose2 {
+    x_m: -0.5,
+    y_m: 0.2,
+    theta_rad: 0.3,
+};
+
+#[test]
+fn a_ball_on_the_pitch_is_found_where_it_lies() {
+    for p in [[0.2, 0.8], [0.5, 0.6], [1.2, 1.1]] {
+        let result = run(POSE, &frame(&POSE, p, 0.04, 1.0), None);
+        let s = result
+            .sighting
+            .unwrap_or_else(|| panic!("{p:?}: {result:?}"));
+        let e = (s.floor.position_m[0] - p[0]).hypot(s.floor.position_m[1] - p[1]);
+        // Pixel quantisation of the drawn disc against the covariance's scale.
+        let sigma = (s.floor.covariance_m2[0] + s.floor.covariance_m2[3]).sqrt();
+        assert!(e < 0.02 + 0.01 * s.floor.range_m, "{p:?}: error {e} m");
+        assert!(e < 3.0 * sigma, "{p:?}: error {e} m, σ {sigma} m");
+    }
+}
+
+#[test]
+fn a_ball_beyond_the_wall_is_refused() {
+    let pose = Pose2 {
+        x_m: 1.5,
+        y_m: 0.0,
+        theta_rad: 0.0,
+    };
+    let result = run(pose, &frame(&pose, [2.6, 0.5], 0.04, 1.0), None);
+    assert!(result.sighting.is_none());
+    assert!(
+        matches!(result.rejected[0].1, Rejection::OffPitch { .. }),
+        "{result:?}"
+    );
+}
+
+#[test]
+fn an_object_of_the_wrong_size_is_refused() {
+    let result = run(POSE, &frame(&POSE, [0.5, 0.6], 0.04, 2.2), None);
+    assert!(result.sighting.is_none(), "{result:?}");
+    assert_eq!(result.rejected[0].1.reason(), "radius_mismatch");
+}
+
+#[test]
+fn a_sighting_far_from_a_fresh_shared_ball_is_refused_but_not_from_a_stale_one() {
+    let image = frame(&POSE, [0.5, 0.6], 0.04, 1.0);
+    let mut shared = SharedBall {
+        position_m: [-1.5, -1.0],
+        covariance_m2: [0.01, 0.0, 0.0, 0.01],
+        age_s: 0.1,
+    };
+    let result = run(POSE, &image, Some(shared));
+    assert_eq!(
+        result.rejected[0].1.reason(),
+        "far_from_shared",
+        "{result:?}"
+    );
+    shared.age_s = 5.0;
+    assert!(run(POSE, &image, Some(shared)).sighting.is_some());
+    shared.position_m = [0.45, 0.65];
+    shared.age_s = 0.1;
+    assert!(run(POSE, &image, Some(shared)).sighting.is_some());
+}
