@@ -20,6 +20,7 @@
 //! calibration and floor projection are not written yet; the simulated observers in `sim`
 //! stand in for the pipeline in the evaluation.
 
+pub mod agent;
 pub mod camera;
 pub mod components;
 pub mod detect;

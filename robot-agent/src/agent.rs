@@ -1,0 +1,367 @@
+//! The robot agent's state between frames, without any I/O: camera models, detector,
+//! sequence numbers, the team's latest ball state and counters. The binary feeds it frames
+//! and ball states and publishes what it returns.
+
+use crate::camera::CameraModel;
+use crate::detect::{CandidateClassifier, DetectError, Detector, DetectorConfig, StageClock};
+use crate::image::RgbImage;
+use crate::kinematics::camera_pose;
+use crate::pipeline::{FrameContext, FrameResult, SharedBall, ValidationConfig, process_frame};
+use crate::projection::{ProjectionNoise, footprint};
+use proto::{
+    BallState, BallStatus, Camera, CameraFootprint, HeadJoints, Observation, Pitch, PixelBall,
+    Pose2, RobotStatus, StageTiming, Stamp,
+};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Settings of the perception pipeline (the `[pipeline]` part of the agent's config file).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    pub detector: DetectorConfig,
+    pub noise: ProjectionNoise,
+    pub validation: ValidationConfig,
+}
+
+/// One captured camera frame with the robot's state at capture.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameInput<'a> {
+    pub stamp: Stamp,
+    pub camera: Camera,
+    pub image: &'a RgbImage,
+    pub pose: Pose2,
+    /// Row-major 3×3 covariance of (x, y, θ).
+    pub pose_covariance: [f64; 9],
+    pub head: HeadJoints,
+}
+
+/// What one frame gave.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameOutcome {
+    /// The observation to publish, if the frame holds a ball.
+    pub observation: Option<Observation>,
+    pub result: FrameResult,
+}
+
+/// Floor footprints are cut off at this range, metres.
+const FOOTPRINT_RANGE_M: f64 = 3.0;
+
+/// A robot's perception state.
+pub struct Agent {
+    robot_id: String,
+    pitch: Pitch,
+    config: PipelineConfig,
+    models: [CameraModel; 2],
+    detectors: [Detector; 2],
+    classifier: Box<dyn CandidateClassifier + Send + Sync>,
+    seq: u64,
+    shared: Option<BallState>,
+    frames: u64,
+    rejections: BTreeMap<&'static str, u64>,
+}
+
+impl std::fmt::Debug for Agent {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Agent")
+            .field("robot_id", &self.robot_id)
+            .field("seq", &self.seq)
+            .field("frames", &self.frames)
+            .finish_non_exhaustive()
+    }
+}
+
+fn index(camera: Camera) -> usize {
+    match camera {
+        Camera::Left => 0,
+        Camera::Right => 1,
+    }
+}
+
+impl Agent {
+    /// `models` are the left and right cameras' calibrations.
+    pub fn new(
+        robot_id: &str,
+        pitch: Pitch,
+        config: PipelineConfig,
+        models: [CameraModel; 2],
+        classifier: Box<dyn CandidateClassifier + Send + Sync>,
+    ) -> Result<Self, DetectError> {
+        let detector = Detector::new(config.detector)?;
+        Ok(Agent {
+            robot_id: robot_id.to_string(),
+            pitch,
+            config,
+            models,
+            detectors: [detector.clone(), detector],
+            classifier,
+            seq: 0,
+            shared: None,
+            frames: 0,
+            rejections: BTreeMap::new(),
+        })
+    }
+
+    pub fn robot_id(&self) -> &str {
+        &self.robot_id
+    }
+
+    /// Frames processed so far.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Observations produced so far.
+    pub fn observations(&self) -> u64 {
+        self.seq
+    }
+
+    /// Candidates rejected so far, by reason.
+    pub fn rejections(&self) -> &BTreeMap<&'static str, u64> {
+        &self.rejections
+    }
+
+    /// Keeps the team's latest ball state for validating later frames.
+    pub fn on_ball_state(&mut self, state: BallState) {
+        if self.shared.as_ref().is_none_or(|s| s.stamp <= state.stamp) {
+            self.shared = Some(state);
+        }
+    }
+
+    /// The shared ball predicted to `stamp` (constant velocity; validation only needs a
+    /// generous gate), or `None` when there is no usable one.
+    fn shared_at(&self, stamp: Stamp) -> Option<SharedBall> {
+        let s = self.shared.as_ref()?;
+        if s.status == BallStatus::Lost {
+            return None;
+        }
+        let dt = stamp.secs_since(s.stamp);
+        let c = &s.covariance;
+        Some(SharedBall {
+            position_m: [
+                s.position_m[0] + s.velocity_mps[0] * dt.max(0.0),
+                s.position_m[1] + s.velocity_mps[1] * dt.max(0.0),
+            ],
+            covariance_m2: [c[0], c[1], c[4], c[5]],
+            age_s: dt.abs(),
+        })
+    }
+
+    /// Runs the pipeline on one frame.
+    pub fn on_frame(
+        &mut self,
+        frame: &FrameInput<'_>,
+        clock: &mut dyn StageClock,
+    ) -> Result<FrameOutcome, DetectError> {
+        let i = index(frame.camera);
+        let ctx = FrameContext {
+            camera: frame.camera,
+            model: &self.models[i],
+            pose: frame.pose,
+            pose_covariance: frame.pose_covariance,
+            head: frame.head,
+            pitch: &self.pitch,
+            shared: self.shared_at(frame.stamp),
+        };
+        let result = process_frame(
+            &self.detectors[i],
+            self.classifier.as_ref(),
+            &self.config.noise,
+            &self.config.validation,
+            frame.image,
+            &ctx,
+            clock,
+        )?;
+        self.frames += 1;
+        for (_, why) in &result.rejected {
+            *self.rejections.entry(why.reason()).or_default() += 1;
+        }
+        let observation = match &result.sighting {
+            Some(s) => {
+                self.detectors[i].adapt(frame.image, &s.circle)?;
+                let obs = Observation {
+                    version: proto::VERSION,
+                    robot_id: self.robot_id.clone(),
+                    seq: self.seq,
+                    camera: frame.camera,
+                    stamp: frame.stamp,
+                    position_m: s.floor.position_m,
+                    covariance_m2: s.floor.covariance_m2,
+                    confidence: s.confidence.clamp(0.0, 1.0),
+                    robot_pose: frame.pose,
+                    pixel: Some(PixelBall {
+                        u_px: s.circle.center_px[0],
+                        v_px: s.circle.center_px[1],
+                        radius_px: s.circle.radius_px,
+                    }),
+                };
+                self.seq += 1;
+                Some(obs)
+            }
+            None => None,
+        };
+        Ok(FrameOutcome {
+            observation,
+            result,
+        })
+    }
+
+    /// The robot's status: pose, head, frame rate, stage timings and each camera's floor
+    /// footprint.
+    pub fn status(
+        &self,
+        stamp: Stamp,
+        pose: Pose2,
+        pose_covariance: [f64; 9],
+        head: HeadJoints,
+        fps: f64,
+        timings: Vec<StageTiming>,
+    ) -> RobotStatus {
+        let footprints = [Camera::Left, Camera::Right]
+            .into_iter()
+            .map(|camera| CameraFootprint {
+                camera,
+                polygon_m: footprint(
+                    &self.models[index(camera)],
+                    &camera_pose(&pose, &head, camera),
+                    FOOTPRINT_RANGE_M,
+                    6,
+                ),
+            })
+            .collect();
+        RobotStatus {
+            version: proto::VERSION,
+            robot_id: self.robot_id.clone(),
+            stamp,
+            pose,
+            pose_covariance,
+            head,
+            fps,
+            timings,
+            footprints,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+    use crate::camera::{Distortion, Intrinsics};
+    use crate::detect::{HoughOnly, NoClock};
+    use proto::Validate;
+
+    fn lens() -> CameraModel {
+        CameraModel {
+            intrinsics: Intrinsics {
+                fx_px: 344.0,
+                fy_px: 344.0,
+                cx_px: 320.0,
+                cy_px: 180.0,
+                width_px: 640,
+                height_px: 360,
+            },
+            distortion: Distortion::KannalaBrandt {
+                k1: -0.1,
+                k2: 0.005,
+                k3: 0.0,
+                k4: 0.0,
+            },
+        }
+    }
+
+    fn agent() -> Agent {
+        Agent::new(
+            "miro1",
+            Pitch::default(),
+            PipelineConfig::default(),
+            [lens(), lens()],
+            Box::new(HoughOnly),
+        )
+        .unwrap()
+    }
+
+    fn head() -> HeadJoints {
+        HeadJoints {
+            lift_rad: proto::miro::DEFAULT_LIFT_RAD,
+            yaw_rad: 0.0,
+            pitch_rad: proto::miro::DEFAULT_PITCH_RAD,
+        }
+    }
+
+    /// A frame with an orange disc in the lower middle of the image, about the size a ball
+    /// there would have.
+    fn frame_with_ball() -> RgbImage {
+        let mut data = Vec::with_capacity(640 * 360 * 3);
+        for y in 0..360 {
+            for x in 0..640 {
+                let d = (f64::from(x) - 300.0).hypot(f64::from(y) - 250.0);
+                data.extend_from_slice(if d <= 26.0 {
+                    &[235, 120, 30]
+                } else {
+                    &[120, 118, 112]
+                });
+            }
+        }
+        RgbImage::new(640, 360, data).unwrap()
+    }
+
+    #[test]
+    fn a_frame_with_a_ball_gives_a_valid_observation_with_increasing_seq() {
+        let mut a = agent();
+        let image = frame_with_ball();
+        let input = FrameInput {
+            stamp: Stamp(1_000_000_000),
+            camera: Camera::Left,
+            image: &image,
+            pose: Pose2::default(),
+            pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4],
+            head: head(),
+        };
+        let first = a.on_frame(&input, &mut NoClock).unwrap();
+        let o1 = first
+            .observation
+            .unwrap_or_else(|| panic!("{:?}", first.result));
+        let o2 = a
+            .on_frame(&input, &mut NoClock)
+            .unwrap()
+            .observation
+            .unwrap();
+        assert_eq!((o1.seq, o2.seq), (0, 1));
+        let ctx = proto::ValidationContext::new(Pitch::default(), Stamp(1_000_000_000));
+        o1.validate(&ctx).unwrap();
+        assert_eq!(o1.robot_id, "miro1");
+        assert!(
+            o1.position_m[0] > 0.2,
+            "the ball is ahead: {:?}",
+            o1.position_m
+        );
+        let blank = RgbImage::filled(640, 360, [120, 118, 112]).unwrap();
+        let none = a
+            .on_frame(
+                &FrameInput {
+                    image: &blank,
+                    ..input
+                },
+                &mut NoClock,
+            )
+            .unwrap();
+        assert!(none.observation.is_none());
+        assert_eq!((a.frames(), a.observations()), (3, 2));
+    }
+
+    #[test]
+    fn status_carries_footprints_for_both_cameras() {
+        let a = agent();
+        let cov = [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4];
+        let s = a.status(Stamp(5), Pose2::default(), cov, head(), 15.0, Vec::new());
+        assert_eq!(s.footprints.len(), 2);
+        assert!(s.footprints.iter().all(|f| f.polygon_m.len() >= 12));
+        let left_y: f64 = s.footprints[0].polygon_m.iter().map(|p| p[1]).sum();
+        let right_y: f64 = s.footprints[1].polygon_m.iter().map(|p| p[1]).sum();
+        assert!(left_y > right_y, "the left camera looks left");
+        let ctx = proto::ValidationContext::new(Pitch::default(), Stamp(5));
+        s.validate(&ctx).unwrap();
+    }
+}
