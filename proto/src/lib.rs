@@ -11,6 +11,8 @@ mod codec;
 mod keys;
 mod messages;
 pub mod miro;
+#[cfg(feature = "zenoh")]
+pub mod net;
 mod pitch;
 pub mod schema;
 mod stamp;

@@ -1,0 +1,44 @@
+//! `robot-agent`: a MiRo's ball perception. `run` finds the ball in camera frames and
+//! publishes observations and status over Zenoh; `calibrate` fits a camera model to
+//! chessboard images; `train` fits the ball classifier.
+
+mod defaults;
+mod frames_io;
+mod run;
+mod sim_source;
+mod sources;
+mod timer;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+#[derive(Debug, Parser)]
+#[command(name = "robot-agent", version, about = "A MiRo's ball perception")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Finds the ball in camera frames and publishes it over Zenoh.
+    Run(run::RunArgs),
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+    match cli.command {
+        Command::Run(args) => {
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .enable_all()
+                .build()?;
+            rt.block_on(run::run(args))
+        }
+    }
+}

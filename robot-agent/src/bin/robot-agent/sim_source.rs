@@ -1,0 +1,120 @@
+//! The `sim` source: a simulated match rendered through this robot's two cameras.
+//!
+//! The agent learns nothing from the simulator but the images and the robot's own sensor
+//! readings (a pose with a wandering error, head joints with encoder error): the lens is
+//! the simulator's, known to the agent only through its calibration.
+
+use crate::frames_io::{RobotState, StoredFrame};
+use crate::sources::{Captured, FrameSource};
+use anyhow::{Context, Result};
+use proto::{Camera, Stamp};
+use robot_agent::image::RgbImage;
+use sim::camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
+use sim::lens::LensModel;
+use sim::render::CameraRig;
+use sim::{SimConfig, SimRun};
+use std::collections::VecDeque;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimArgs {
+    /// Scenario of the `sim` source.
+    #[arg(long, default_value = "match")]
+    pub scenario: String,
+    /// Seed of the `sim` source's match.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Robots in a `match`.
+    #[arg(long)]
+    pub team_size: Option<usize>,
+    /// Length of the simulated match, seconds (default: the scenario's).
+    #[arg(long)]
+    pub sim_duration: Option<f64>,
+    /// The match's t = 0, nanoseconds since the epoch (default: now). Processes that share
+    /// it see the same match.
+    #[arg(long)]
+    pub start_stamp: Option<u64>,
+    /// The ball has white patches.
+    #[arg(long)]
+    pub patterned_ball: bool,
+}
+
+#[derive(Debug)]
+pub struct SimSource {
+    robot_id: String,
+    run: SimRun,
+    rig: CameraRig,
+    cfg: CameraWorldConfig,
+    seed: u64,
+    times: VecDeque<f64>,
+    frame_index: u64,
+    pending: VecDeque<Captured>,
+}
+
+impl SimSource {
+    pub fn new(robot_id: &str, args: &SimArgs, now: Stamp) -> Result<Self> {
+        let cfg = SimConfig {
+            start: args.start_stamp.map_or(now, Stamp),
+            duration_s: args.sim_duration,
+            team_size: args.team_size,
+            ..SimConfig::default()
+        };
+        let run = sim::run_scenario(&args.scenario, args.seed, &cfg)
+            .with_context(|| format!("simulating {}", args.scenario))?;
+        anyhow::ensure!(
+            run.robot(robot_id).is_some(),
+            "scenario {} has no robot {robot_id:?} (it has {})",
+            args.scenario,
+            run.robots.iter().map(|r| r.id.as_str()).collect::<Vec<_>>().join(", ")
+        );
+        let mut cam_cfg = CameraWorldConfig::default();
+        if args.patterned_ball {
+            cam_cfg.ball_look = patterned_ball();
+        }
+        let rig = CameraRig::new(LensModel::miro());
+        let times = CameraWorld::new(&run, &rig, cam_cfg, args.seed).frame_times().collect();
+        Ok(SimSource {
+            robot_id: robot_id.to_string(),
+            run,
+            rig,
+            cfg: cam_cfg,
+            seed: args.seed,
+            times,
+            frame_index: 0,
+            pending: VecDeque::new(),
+        })
+    }
+}
+
+impl FrameSource for SimSource {
+    fn next_frame(&mut self) -> Result<Option<Captured>> {
+        if let Some(c) = self.pending.pop_front() {
+            return Ok(Some(c));
+        }
+        let Some(t_s) = self.times.pop_front() else {
+            return Ok(None);
+        };
+        let world = CameraWorld::new(&self.run, &self.rig, self.cfg, self.seed);
+        let capture = world.capture(&self.robot_id, t_s, self.frame_index);
+        self.frame_index += 1;
+        let stamp = self.run.stamp_of(t_s);
+        let r = capture.reading;
+        let state = RobotState {
+            state_stamp: Some(stamp),
+            pose: r.pose,
+            pose_covariance: r.pose_covariance,
+            head: r.head,
+        };
+        for ((frame, truth), camera) in capture.frames.into_iter().zip([Camera::Left, Camera::Right]) {
+            let image = RgbImage::new(frame.width, frame.height, frame.rgb)?;
+            self.pending.push_back(Captured {
+                frame: StoredFrame { stamp, camera, image, state },
+                truth,
+            });
+        }
+        Ok(self.pending.pop_front())
+    }
+
+    fn live(&self) -> bool {
+        true
+    }
+}
