@@ -13,8 +13,10 @@
 //! [`truth_log`] carries a run's ground truth through a match log and rebuilds the run.
 //! This crate never depends on `fusion-server`.
 
+pub mod head;
 mod kicks;
 mod latency;
+pub mod lens;
 mod noise;
 mod observer;
 mod physics;
@@ -27,6 +29,7 @@ mod seed_scenarios;
 pub mod truth_log;
 mod types;
 mod vec2;
+pub mod vec3;
 mod world;
 
 #[cfg(test)]
