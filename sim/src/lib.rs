@@ -38,6 +38,8 @@ mod world;
 #[cfg(test)]
 mod observation_tests;
 #[cfg(test)]
+mod render_tests;
+#[cfg(test)]
 mod scenario_tests;
 #[cfg(test)]
 mod truth_log_tests;
