@@ -154,7 +154,7 @@ fn pixel_scale(scene: &Scene) -> [f32; 3] {
 /// A Gaussian-like draw (mean 0, variance 1) from one 64-bit word: the sum of four
 /// 16-bit uniforms (Irwin–Hall), far cheaper than Box–Muller and ample for sensor noise.
 #[inline]
-fn gauss(rng: &mut Rng) -> f32 {
+pub(crate) fn gauss(rng: &mut Rng) -> f32 {
     let u = rng.next_u64();
     let s = (u & 0xFFFF) + ((u >> 16) & 0xFFFF) + ((u >> 32) & 0xFFFF) + (u >> 48);
     (s as f32 / 65536.0 - 2.0) * 1.732_050_8
