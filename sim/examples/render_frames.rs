@@ -2,6 +2,7 @@
 //! `cargo run -p sim --release --example render_frames`.
 
 use proto::{HeadJoints, Pose2};
+use sim::chessboard::{Chessboard, calibration_views, render_chessboard};
 use sim::head::default_head;
 use sim::lens::LensModel;
 use sim::render::{CameraRig, render_robot_cameras};
@@ -78,6 +79,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "corner",
         &render_robot_cameras(&rig, &scene, corner, up, 4),
     )?;
+
+    let lens = LensModel::miro();
+    let board = Chessboard::default();
+    for (k, pose) in calibration_views(&lens, 3, 1).iter().enumerate() {
+        let (frame, corners) = render_chessboard(&lens, &board, pose, 2.0, k as u64);
+        let path = out.join(format!("chessboard_{k}.png"));
+        save_png(&path, &frame)?;
+        let first = corners.as_ref().and_then(|c| c.first().copied());
+        println!("{}: first inner corner at {first:?}", path.display());
+    }
     Ok(())
 }
 

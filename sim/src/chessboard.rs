@@ -185,8 +185,8 @@ pub const VIEW_MARGIN_PX: f64 = 12.0;
 /// `count` varied board poses for calibrating `lens`: the board's centre aimed at each
 /// cell of a 3×3 grid over the image in turn (corners and edges included) with jitter,
 /// 0.15–0.5 m away, tilted up to 45° about a random in-plane axis and rolled up to ±25°,
-/// every inner corner at least [`VIEW_MARGIN_PX`] inside the image and the squares at
-/// least 6 px apart. Views that cannot be placed after many draws fall back to a frontal
+/// the whole card inside the image, every inner corner at least [`VIEW_MARGIN_PX`] inside
+/// it and the squares at least 6 px apart. Views that cannot be placed after many draws fall back to a frontal
 /// view, so the result always has `count` poses.
 pub fn calibration_views(lens: &LensModel, count: usize, seed: u64) -> Vec<BoardPose> {
     let board = Chessboard::default();
@@ -241,8 +241,21 @@ fn acceptable(lens: &LensModel, board: &Chessboard, pose: &BoardPose) -> bool {
     let spaced = px.windows(2).enumerate().all(|(k, p)| {
         (k + 1) % board.inner_cols == 0 || (p[1][0] - p[0][0]).hypot(p[1][1] - p[0][1]) >= 6.0
     });
+    // The whole card shows, so a corner finder sees every square with white around it.
+    let hw = (board.inner_cols + 1) as f64 * board.square_m / 2.0 + board.margin_m;
+    let hh = (board.inner_rows + 1) as f64 * board.square_m / 2.0 + board.margin_m;
+    let card_inside = (0..16).all(|k| {
+        let a = std::f64::consts::TAU * f64::from(k) / 16.0;
+        // Points round the card's edge (a square's outline traced by angle).
+        let (c, s) = (a.cos(), a.sin());
+        let m = c.abs().max(s.abs());
+        let edge = [hw * c / m, hh * s / m, 0.0];
+        let p = add(pose.origin_m, mul_vec(&pose.camera_from_board, edge));
+        lens.project(p).is_some_and(|q| lens.contains(q, 2.0))
+    });
     facing > 20f64.to_radians().sin()
         && spaced
+        && card_inside
         && px.iter().all(|&p| lens.contains(p, VIEW_MARGIN_PX))
 }
 

@@ -81,7 +81,7 @@ impl LensModel {
         let [x, y, z] = dir_cam;
         let rho = x.hypot(y);
         let theta = rho.atan2(z);
-        if !(theta <= MAX_THETA_RAD) || (rho == 0.0 && z <= 0.0) {
+        if theta.is_nan() || theta > MAX_THETA_RAD || (rho == 0.0 && z <= 0.0) {
             return None;
         }
         let r = self.radius_px(theta);

@@ -9,7 +9,9 @@
 //! → the same run, bit for bit; there are no clock reads, time is simulated.
 //!
 //! `run_scenario` produces a whole `SimRun`; `World` steps the same world incrementally for
-//! a live caller. [`score`] scores a method's estimates against a run's ground truth;
+//! a live caller. [`render`] draws what a MiRo's cameras see through the sim's own fisheye
+//! [`lens`] (placed by the [`head`] chain), with per-frame ball ground truth; [`chessboard`]
+//! renders calibration views with their true corners. [`score`] scores a method's estimates against a run's ground truth;
 //! [`truth_log`] carries a run's ground truth through a match log and rebuilds the run.
 //! This crate never depends on `fusion-server`.
 
