@@ -9,15 +9,23 @@
 //! → the same run, bit for bit; there are no clock reads, time is simulated.
 //!
 //! `run_scenario` produces a whole `SimRun`; `World` steps the same world incrementally for
-//! a live caller. [`score`] scores a method's estimates against a run's ground truth;
+//! a live caller. [`render`] draws what a MiRo's cameras see through the sim's own fisheye
+//! [`lens`] (placed by the [`head`] chain), with per-frame ball ground truth; [`chessboard`]
+//! renders calibration views with their true corners. [`score`] scores a method's estimates against a run's ground truth;
 //! [`truth_log`] carries a run's ground truth through a match log and rebuilds the run.
 //! This crate never depends on `fusion-server`.
 
+pub mod chessboard;
+pub mod head;
 mod kicks;
 mod latency;
+pub mod lens;
 mod noise;
 mod observer;
 mod physics;
+pub mod render;
+mod render_objects;
+pub mod render_scene;
 mod rng;
 mod robots;
 mod run;
@@ -27,10 +35,13 @@ mod seed_scenarios;
 pub mod truth_log;
 mod types;
 mod vec2;
+pub mod vec3;
 mod world;
 
 #[cfg(test)]
 mod observation_tests;
+#[cfg(test)]
+mod render_tests;
 #[cfg(test)]
 mod scenario_tests;
 #[cfg(test)]
