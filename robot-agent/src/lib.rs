@@ -36,6 +36,8 @@ pub mod image;
 pub mod kmeans;
 pub mod morphology;
 pub mod patch;
+#[cfg(test)]
+mod patch_fixtures;
 mod rng;
 pub mod svm;
 mod svm_model;
