@@ -241,9 +241,9 @@ pub fn colour_check(
 ) -> Result<ColourCheck, ColourError> {
     config.check()?;
     thresholds.check()?;
-    if !(center_px[0].is_finite() && center_px[1].is_finite())
-        || !(radius_px.is_finite() && radius_px > 0.0)
-    {
+    let usable =
+        center_px.iter().all(|v| v.is_finite()) && radius_px.is_finite() && radius_px > 0.0;
+    if !usable {
         return Err(ColourError::BadCircle {
             x_px: center_px[0],
             y_px: center_px[1],

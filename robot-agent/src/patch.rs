@@ -205,9 +205,9 @@ fn check(
     radius_px: f64,
     config: &PatchConfig,
 ) -> Result<(), PatchError> {
-    if !(center_px[0].is_finite() && center_px[1].is_finite())
-        || !(radius_px.is_finite() && radius_px > 0.0)
-    {
+    let usable =
+        center_px.iter().all(|v| v.is_finite()) && radius_px.is_finite() && radius_px > 0.0;
+    if !usable {
         return Err(PatchError::BadCircle {
             x_px: center_px[0],
             y_px: center_px[1],

@@ -1,7 +1,7 @@
 //! Tests of the SVM: a non-linear problem, serialisation round trips and corrupt models,
 //! calibration, and bad inputs.
 
-#![allow(clippy::unwrap_used)]
+#![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 
 use super::*;
 use crate::rng::SplitMix64;

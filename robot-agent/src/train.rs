@@ -77,7 +77,7 @@ pub struct TrainConfig {
 impl Default for TrainConfig {
     fn default() -> Self {
         Self {
-            seed: 0x0BA1_1,
+            seed: 0xBA11,
             held_out_fraction: 0.2,
             folds: 3,
             c_grid: vec![1.0, 10.0, 100.0],
