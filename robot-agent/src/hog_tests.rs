@@ -122,3 +122,16 @@ fn matches_the_atan2_reference() {
         }
     }
 }
+
+proptest::proptest! {
+    #[test]
+    fn random_patches_mirror_and_stay_in_range(values in proptest::collection::vec(0.0f32..1.0, 1024)) {
+        let p = Patch::from_grey(values).unwrap();
+        let d = hog(&p);
+        let m = hog(&p.mirrored());
+        for i in 0..HOG_LEN {
+            proptest::prop_assert!((0.0..=1.0).contains(&d[i]));
+            proptest::prop_assert!((m[mirrored_index(i)] - d[i]).abs() < 1e-4);
+        }
+    }
+}

@@ -227,3 +227,57 @@ fn bad_inputs_are_errors() {
         Err(SvmError::Dimension { index: 3, .. })
     ));
 }
+
+#[test]
+fn the_solver_meets_the_optimality_conditions() {
+    let (f, l) = xor(120, 9);
+    let p = SvmParams {
+        c: 2.0,
+        gamma: 0.7,
+        tolerance: 1e-4,
+        ..SvmParams::default()
+    };
+    let dim = f[0].len();
+    let x: Vec<f32> = f.iter().flatten().copied().collect();
+    let y: Vec<f64> = l.iter().map(|&b| if b { 1.0 } else { -1.0 }).collect();
+    let s = solve(&x, dim, &y, &p);
+    let balance: f64 = s.alpha.iter().zip(&y).map(|(a, y)| a * y).sum();
+    assert!(balance.abs() < 1e-9, "Σαy = {balance}");
+    assert!(s.alpha.iter().all(|&a| (0.0..=p.c).contains(&a)));
+    let kernel = |i: usize, j: usize| {
+        let d2: f64 = (0..dim)
+            .map(|k| f64::from(x[i * dim + k] - x[j * dim + k]).powi(2))
+            .sum();
+        (-p.gamma * d2).exp()
+    };
+    let mut bound = 0;
+    for i in 0..y.len() {
+        let decision: f64 = (0..y.len())
+            .map(|j| s.alpha[j] * y[j] * kernel(i, j))
+            .sum::<f64>()
+            - s.rho;
+        let margin = y[i] * decision;
+        let tol = 2e-3;
+        if s.alpha[i] == 0.0 {
+            assert!(margin >= 1.0 - tol, "sample {i}: α = 0, margin {margin}");
+        } else if s.alpha[i] == p.c {
+            bound += 1;
+            assert!(margin <= 1.0 + tol, "sample {i}: α = C, margin {margin}");
+        } else {
+            assert!(
+                (margin - 1.0).abs() <= tol,
+                "sample {i}: free, margin {margin}"
+            );
+        }
+    }
+    assert!(bound < y.len() / 4);
+}
+
+proptest::proptest! {
+    #[test]
+    fn platt_is_monotone_for_any_negative_slope(a in -50.0f64..-1e-3, b in -10.0f64..10.0,
+                                                 f in -10.0f64..10.0, df in 0.0f64..5.0) {
+        let platt = Platt { a, b };
+        proptest::prop_assert!(platt.probability(f + df) >= platt.probability(f));
+    }
+}

@@ -137,3 +137,17 @@ fn bench_filter_stages() {
         model.support_vector_count()
     );
 }
+
+#[test]
+fn training_is_deterministic() {
+    let (pos, neg) = patches(12, 30, 8);
+    let cfg = TrainConfig {
+        c_grid: vec![10.0],
+        gamma_grid: vec![1.0 / 288.0],
+        ..small()
+    };
+    let (a, ra) = train(&pos, &neg, &cfg, &mut |_| {}).unwrap();
+    let (b, rb) = train(&pos, &neg, &cfg, &mut |_| {}).unwrap();
+    assert_eq!(a.to_json().unwrap(), b.to_json().unwrap());
+    assert_eq!(ra, rb);
+}
