@@ -224,8 +224,23 @@ fn check(
     Ok(())
 }
 
+/// Bilinear taps along one axis: lower index, upper index and the upper weight, for
+/// `count` samples starting at `first_px` spaced `step_px`, clamped to `0..len`.
+fn taps(first_px: f64, step_px: f64, count: usize, len: usize) -> Vec<(usize, usize, f32)> {
+    let max = (len - 1) as f64;
+    (0..count)
+        .map(|i| {
+            let p = (first_px + i as f64 * step_px).clamp(0.0, max);
+            let lo = p.floor();
+            let i0 = lo as usize;
+            (i0, (i0 + 1).min(len - 1), (p - lo) as f32)
+        })
+        .collect()
+}
+
 /// The window of the circle resampled to 32×32 colour samples (0..=255 as f32), box
-/// filtered when the window is larger than the patch.
+/// filtered when the window is larger than the patch. The sample grid is separable, so
+/// the bilinear taps are computed once per column and per row.
 fn resample(
     image: &RgbImage,
     center_px: [f64; 2],
@@ -240,33 +255,27 @@ fn resample(
     let weight = 1.0 / (sub * sub) as f32;
     let (w, h) = (image.width() as usize, image.height() as usize);
     let data = image.data();
-    let at = |x: usize, y: usize| {
-        let i = 3 * (y * w + x);
-        [
-            f32::from(data[i]),
-            f32::from(data[i + 1]),
-            f32::from(data[i + 2]),
-        ]
-    };
-    let x0 = center_px[0] - side_px / 2.0;
-    let y0 = center_px[1] - side_px / 2.0;
-    let mut out = Vec::with_capacity(PATCH_PIXELS);
-    for py in 0..PATCH_SIDE_PX {
-        for px in 0..PATCH_SIDE_PX {
-            let mut sum = [0.0f32; 3];
-            for sy in 0..sub {
-                // Pixel centres sit at integers, so the window edge x0 is a pixel boundary
-                // minus half a pixel: the first sample centre is half a sub-step inside.
-                let y = y0 + (py * sub + sy) as f64 * sub_step_px + sub_step_px / 2.0 - 0.5;
-                for sx in 0..sub {
-                    let x = x0 + (px * sub + sx) as f64 * sub_step_px + sub_step_px / 2.0 - 0.5;
-                    let s = bilinear(x, y, w, h, at);
-                    for k in 0..3 {
-                        sum[k] += s[k] * weight;
-                    }
-                }
+    // Pixel centres sit at integers, so pixel i covers [i − 0.5, i + 0.5]; the first
+    // sample sits half a sub-step inside the window's edge.
+    let first = |c: f64| c - side_px / 2.0 + sub_step_px / 2.0 - 0.5;
+    let n = PATCH_SIDE_PX * sub;
+    let xs = taps(first(center_px[0]), sub_step_px, n, w);
+    let ys = taps(first(center_px[1]), sub_step_px, n, h);
+    let mut out = vec![[0.0f32; 3]; PATCH_PIXELS];
+    for (j, &(y0, y1, fy)) in ys.iter().enumerate() {
+        let (row0, row1) = (&data[3 * y0 * w..][..3 * w], &data[3 * y1 * w..][..3 * w]);
+        let out_row = &mut out[(j / sub) * PATCH_SIDE_PX..][..PATCH_SIDE_PX];
+        for (i, &(x0, x1, fx)) in xs.iter().enumerate() {
+            let acc = &mut out_row[i / sub];
+            for k in 0..3 {
+                let a = f32::from(row0[3 * x0 + k]);
+                let b = f32::from(row0[3 * x1 + k]);
+                let c = f32::from(row1[3 * x0 + k]);
+                let d = f32::from(row1[3 * x1 + k]);
+                let top = a + (b - a) * fx;
+                let bottom = c + (d - c) * fx;
+                acc[k] += (top + (bottom - top) * fy) * weight;
             }
-            out.push(sum);
         }
     }
     out

@@ -137,6 +137,10 @@ impl SvmParams {
     }
 }
 
+/// Smallest standard deviation a feature is scaled by (HOG features lie in [0, 1] and
+/// typically spread by 0.05 to 0.2).
+pub const MIN_FEATURE_STD: f64 = 1e-2;
+
 /// Per-feature standardisation: `(x − mean) × inv_std`.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Standardiser {
@@ -145,8 +149,9 @@ pub(crate) struct Standardiser {
 }
 
 impl Standardiser {
-    /// Mean and inverse standard deviation of each feature; a constant feature gets scale 1
-    /// (it then contributes nothing to any distance).
+    /// Mean and inverse standard deviation of each feature. Spreads below
+    /// [`MIN_FEATURE_STD`] count as that value, so that a feature that is (nearly) constant
+    /// in training cannot dominate distances when it moves at prediction time.
     fn fit<F: AsRef<[f32]>>(features: &[F], dim: usize) -> Self {
         let n = features.len().max(1) as f64;
         let mut mean = vec![0.0f64; dim];
@@ -161,9 +166,7 @@ impl Standardiser {
         for k in 0..dim {
             mean[k] /= n;
             let var = (sq[k] / n - mean[k] * mean[k]).max(0.0);
-            if var > 1e-12 {
-                inv_std[k] = (1.0 / var.sqrt()) as f32;
-            }
+            inv_std[k] = (1.0 / var.sqrt().max(MIN_FEATURE_STD)) as f32;
         }
         Self {
             mean: mean.into_iter().map(|m| m as f32).collect(),

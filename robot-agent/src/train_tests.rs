@@ -5,6 +5,7 @@
 
 use super::*;
 use crate::patch_fixtures::patches;
+use crate::rng::SplitMix64;
 
 /// A configuration small enough for debug-mode tests.
 fn small() -> TrainConfig {
@@ -130,6 +131,36 @@ fn bench_filter_stages() {
     }
     let predict_us = t.elapsed().as_secs_f64() * 1e6 / features.len() as f64;
     let json_kb = model.to_json().unwrap().len() as f64 / 1024.0;
+    let (image, centre, radius) = crate::patch_fixtures::ball_frame(&mut SplitMix64::new(5));
+    let patch_cfg = crate::patch::PatchConfig::default();
+    let colour_cfg = crate::kmeans::ColourCheckConfig::default();
+    let thresholds = crate::hsv::HsvThresholds {
+        hue_lo_deg: 10.0,
+        hue_hi_deg: 45.0,
+        sat_min: 0.4,
+        sat_max: 1.0,
+        val_min: 0.2,
+        val_max: 1.0,
+    };
+    let reps = 2000;
+    let t = Instant::now();
+    for _ in 0..reps {
+        sink += crate::patch::extract(&image, centre, radius, &patch_cfg)
+            .unwrap()
+            .grey()[0];
+    }
+    let extract_us = t.elapsed().as_secs_f64() * 1e6 / f64::from(reps);
+    let t = Instant::now();
+    let mut passes = 0;
+    for _ in 0..reps {
+        let c = crate::kmeans::colour_check(&image, centre, radius, &thresholds, &colour_cfg);
+        passes += usize::from(c.unwrap().passes);
+    }
+    let colour_us = t.elapsed().as_secs_f64() * 1e6 / f64::from(reps);
+    println!(
+        "patch extraction {extract_us:.1} µs and colour check {colour_us:.1} µs at radius \
+         {radius:.1} px ({passes} of {reps} pass)"
+    );
     println!("{report}");
     println!(
         "HOG {hog_us:.2} µs/patch; prediction {predict_us:.1} µs with {} support vectors; \
