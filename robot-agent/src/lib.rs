@@ -15,8 +15,15 @@
 //! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
 //! - [`components`]: connected components of a mask with area, bounding box and centroid.
 //! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
+//! - [`patch`]: the 32×32 candidate patch around a circle, with mirroring and rotation.
+//! - [`hog`]: the histogram-of-oriented-gradients descriptor of a patch (288 features).
+//! - [`svm`]: the RBF-kernel SVM candidate filter: SMO training, Platt-calibrated
+//!   probability, model serialisation.
+//! - [`train`]: training the filter from labelled patches: augmentation, split, grid
+//!   search by cross-validation, held-out metrics.
+//! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
 //!
-//! The later detection stages (HOG + SVM filter, colour check, world validation),
+//! The world validation of detections,
 //! calibration and floor projection are not written yet; the simulated observers in `sim`
 //! stand in for the pipeline in the evaluation.
 
@@ -24,12 +31,21 @@ pub mod agent;
 pub mod camera;
 pub mod components;
 pub mod detect;
+pub mod hog;
 pub mod hough;
 pub mod hsv;
 pub mod image;
 pub mod kinematics;
+pub mod kmeans;
 pub mod morphology;
+pub mod patch;
+#[cfg(test)]
+mod patch_fixtures;
 pub mod pipeline;
 pub mod projection;
+mod rng;
+pub mod svm;
+mod svm_model;
 #[cfg(test)]
 mod test_fixtures;
+pub mod train;
