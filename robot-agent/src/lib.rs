@@ -20,11 +20,16 @@
 //! calibration and floor projection are not written yet; the simulated observers in `sim`
 //! stand in for the pipeline in the evaluation.
 
+#[cfg(test)]
+mod calibration_fixtures;
 pub mod camera;
+pub mod chessboard;
 pub mod components;
+pub mod gray;
 pub mod hough;
 pub mod hsv;
 pub mod image;
+pub mod image_io;
 pub mod morphology;
 #[cfg(test)]
 mod test_fixtures;
