@@ -20,12 +20,15 @@
 //! calibration and floor projection are not written yet; the simulated observers in `sim`
 //! stand in for the pipeline in the evaluation.
 
+mod bundle;
+pub mod calibrate;
 #[cfg(test)]
 mod calibration_fixtures;
 pub mod camera;
 pub mod chessboard;
 pub mod components;
 pub mod gray;
+pub mod homography;
 pub mod hough;
 pub mod hsv;
 pub mod image;
