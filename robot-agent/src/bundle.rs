@@ -20,6 +20,7 @@ pub(crate) enum Lens {
 
 impl Lens {
     /// Number of intrinsic parameters.
+    #[cfg(test)]
     pub(crate) fn len(self) -> usize {
         match self {
             Lens::BrownConrady => 9,
