@@ -18,17 +18,6 @@ pub(crate) enum Lens {
     KannalaBrandt,
 }
 
-impl Lens {
-    /// Number of intrinsic parameters.
-    #[cfg(test)]
-    pub(crate) fn len(self) -> usize {
-        match self {
-            Lens::BrownConrady => 9,
-            Lens::KannalaBrandt => 8,
-        }
-    }
-}
-
 /// Most Levenberg–Marquardt iterations.
 const MAX_ITERATIONS: usize = 200;
 /// Stop when an accepted step lowers the cost by less than this fraction.

@@ -370,10 +370,10 @@ fn fisheye_start(
     let centre = [0.5 * (w - 1.0), 0.5 * (h - 1.0)];
     let mut best: Option<(f64, f64)> = None;
     let consider = |f: f64, best: &mut Option<(f64, f64)>| {
-        if let Some(cost) = equidistant_cost(usable, plane, centre, f) {
-            if best.is_none_or(|(_, c)| cost < c) {
-                *best = Some((f, cost));
-            }
+        if let Some(cost) = equidistant_cost(usable, plane, centre, f)
+            && best.is_none_or(|(_, c)| cost < c)
+        {
+            *best = Some((f, cost));
         }
     };
     let (low, high) = (0.05 * w, 3.0 * w);

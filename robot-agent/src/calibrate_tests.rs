@@ -197,3 +197,43 @@ fn too_few_views_is_an_error() {
         CalibrationError::TooFewViews { usable: 0, .. }
     ));
 }
+
+/// Prints detection and calibration times on the photographs:
+/// `cargo test -p robot-agent --release -- --ignored --nocapture report_timings`.
+#[test]
+#[ignore = "a measurement, not a check"]
+fn report_timings() {
+    let board = Board {
+        cols: 9,
+        rows: 6,
+        square_m: 0.025,
+    };
+    let images: Vec<(String, GrayImage)> = photo_names()
+        .into_iter()
+        .map(|n| (n.to_string(), photo(n)))
+        .collect();
+    let start = std::time::Instant::now();
+    let views = detect_views(&images, &board);
+    let detection = start.elapsed();
+    let start = std::time::Instant::now();
+    let c = calibrate(&views, &board, 640, 480, LensModel::BrownConrady).unwrap();
+    let fit = start.elapsed();
+    let fisheye_start = std::time::Instant::now();
+    let f = calibrate(&views, &board, 640, 480, LensModel::KannalaBrandt).unwrap();
+    let fisheye = fisheye_start.elapsed();
+    println!(
+        "detection {:.1} ms per image ({} of {} found); Brown–Conrady fit {:.1} ms, RMS {:.3} px, \
+         {:?}; Kannala–Brandt fit {:.1} ms, RMS {:.3} px",
+        detection.as_secs_f64() * 1e3 / images.len() as f64,
+        views.iter().filter(|v| v.corners_px.is_ok()).count(),
+        views.len(),
+        fit.as_secs_f64() * 1e3,
+        c.rms_px,
+        c.model,
+        fisheye.as_secs_f64() * 1e3,
+        f.rms_px,
+    );
+    for v in &c.per_view {
+        println!("{} {:.3} px", v.name, v.rms_px.unwrap_or(f64::NAN));
+    }
+}

@@ -499,7 +499,7 @@ pub fn refine_saddle(image: &GrayImage, start: [f64; 2], half_window: i64) -> [f
             }
         }
         let det = a00 * a11 - a01 * a01;
-        if !(det.abs() > 1e-9 * (a00 * a11).abs().max(1e-30)) {
+        if det.is_nan() || det.abs() <= 1e-9 * (a00 * a11).abs().max(1e-30) {
             return start;
         }
         let next = [(a11 * b0 - a01 * b1) / det, (a00 * b1 - a01 * b0) / det];

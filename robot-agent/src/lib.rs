@@ -15,9 +15,17 @@
 //! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
 //! - [`components`]: connected components of a mask with area, bounding box and centroid.
 //! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
+//! - [`gray`]: the greyscale image of the calibration, and [`image_io`] to load it from
+//!   JPEG and PNG files (the only file input of the library).
+//! - [`chessboard`]: chessboard inner-corner detection with sub-pixel refinement.
+//! - [`homography`]: plane-to-image homographies, Zhang's closed-form intrinsics and a
+//!   board's pose from its homography.
+//! - [`calibrate`]: camera calibration from chessboard views (Brown–Conrady or
+//!   Kannala–Brandt), refined by Levenberg–Marquardt over all parameters, with the reasons
+//!   for every view left out; saved and loaded as TOML.
 //!
-//! The later detection stages (HOG + SVM filter, colour check, world validation),
-//! calibration and floor projection are not written yet; the simulated observers in `sim`
+//! The later detection stages (HOG + SVM filter, colour check, world validation) and floor
+//! projection are not written yet; the simulated observers in `sim`
 //! stand in for the pipeline in the evaluation.
 
 mod bundle;
