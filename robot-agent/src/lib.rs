@@ -2,16 +2,27 @@
 //! with the robot's kinematics and publishes it as a `proto::Observation` with an honest
 //! covariance.
 //!
-//! The perception pipeline (camera models and calibration, detection, projection) lives in
-//! this crate. Today it holds:
+//! The library is pure: functions over images and numbers, no clock reads, no I/O except
+//! [`image_io`]'s file loading. The `robot-agent` binary is the shell: frame sources, Zenoh,
+//! the command line.
 //!
+//! Calibration:
 //! - [`camera`]: camera models (pinhole intrinsics with Brown–Conrady or Kannala–Brandt
 //!   fisheye distortion): projection with its Jacobian, unprojection to rays, and a
 //!   validity check.
+//! - [`gray`]: the greyscale image of the calibration, and [`image_io`] to load images from
+//!   JPEG and PNG files and to write PNGs.
+//! - [`chessboard`]: chessboard inner-corner detection with sub-pixel refinement.
+//! - [`homography`]: plane-to-image homographies, Zhang's closed-form intrinsics and a
+//!   board's pose from its homography.
+//! - [`calibrate`]: camera calibration from chessboard views (Brown–Conrady or
+//!   Kannala–Brandt), refined by Levenberg–Marquardt over all parameters, with the reasons
+//!   for every view left out; saved and loaded as TOML.
+//!
+//! Detection, one stage per module:
 //! - [`image`]: the RGB8 frame and binary mask buffers of the detection pipeline.
-//! - [`hsv`]: the first stage of the ball detector: HSV colour thresholds, the frame's
-//!   colour mask (exact, or through a lookup table), and lighting adaptation of the
-//!   thresholds.
+//! - [`hsv`]: HSV colour thresholds, the frame's colour mask (exact, or through a lookup
+//!   table), and lighting adaptation of the thresholds.
 //! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
 //! - [`components`]: connected components of a mask with area, bounding box and centroid.
 //! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
@@ -22,19 +33,34 @@
 //! - [`train`]: training the filter from labelled patches: augmentation, split, grid
 //!   search by cross-validation, held-out metrics.
 //! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
+//! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
+//! - [`detect`]: one frame to ball candidates through the stages above.
 //!
-//! The world validation of detections,
-//! calibration and floor projection are not written yet; the simulated observers in `sim`
-//! stand in for the pipeline in the evaluation.
+//! Projection and the agent:
+//! - [`kinematics`]: the MiRo's chain from pose and head joints to each camera.
+//! - [`projection`]: pixel to floor point with the covariance propagated from the pixel,
+//!   pose and joint uncertainties; camera footprints.
+//! - [`pipeline`]: detection, projection and world validation of one frame, at most one
+//!   ball per frame.
+//! - [`agent`]: a robot's perception state between frames: observations, status, counters.
 
 pub mod agent;
+mod bundle;
+pub mod calibrate;
+#[cfg(test)]
+mod calibration_fixtures;
 pub mod camera;
+pub mod chessboard;
+pub mod classifier;
 pub mod components;
 pub mod detect;
+pub mod gray;
 pub mod hog;
+pub mod homography;
 pub mod hough;
 pub mod hsv;
 pub mod image;
+pub mod image_io;
 pub mod kinematics;
 pub mod kmeans;
 pub mod morphology;

@@ -15,6 +15,7 @@
 //! [`truth_log`] carries a run's ground truth through a match log and rebuilds the run.
 //! This crate never depends on `fusion-server`.
 
+pub mod camera_world;
 pub mod chessboard;
 pub mod head;
 mod kicks;

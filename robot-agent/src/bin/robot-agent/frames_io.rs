@@ -83,7 +83,8 @@ pub fn read_index(dir: &Path) -> Result<Vec<FrameRecord>> {
 pub fn load_image(dir: &Path, file: &str) -> Result<RgbImage> {
     let path = dir.join(file);
     let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-    robot_agent::image_io::decode_rgb(&bytes).with_context(|| format!("decoding {}", path.display()))
+    robot_agent::image_io::decode_rgb(&bytes)
+        .with_context(|| format!("decoding {}", path.display()))
 }
 
 /// Writes an image folder: PNG files and the `frames.jsonl` index.
@@ -98,7 +99,8 @@ impl FolderWriter {
     pub fn create(dir: &Path) -> Result<Self> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join("frames.jsonl");
-        let index = std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        let index =
+            std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
         Ok(FolderWriter {
             dir: dir.to_path_buf(),
             index: BufWriter::new(index),
@@ -157,7 +159,11 @@ impl FoxgloveTime {
     }
 
     fn stamp(&self) -> Stamp {
-        Stamp(self.sec.saturating_mul(1_000_000_000).saturating_add(u64::from(self.nsec)))
+        Stamp(
+            self.sec
+                .saturating_mul(1_000_000_000)
+                .saturating_add(u64::from(self.nsec)),
+        )
     }
 }
 
@@ -200,7 +206,9 @@ pub struct McapFrameWriter {
 
 impl std::fmt::Debug for McapFrameWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("McapFrameWriter").field("sequence", &self.sequence).finish_non_exhaustive()
+        f.debug_struct("McapFrameWriter")
+            .field("sequence", &self.sequence)
+            .finish_non_exhaustive()
     }
 }
 
@@ -209,14 +217,20 @@ impl McapFrameWriter {
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             std::fs::create_dir_all(parent)?;
         }
-        let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        let file =
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
         let mut writer = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             .profile("")
             .create(BufWriter::new(file))
             .context("starting the MCAP file")?;
-        let image_schema = writer.add_schema("foxglove.CompressedImage", "jsonschema", COMPRESSED_SCHEMA.as_bytes())?;
-        let state_schema = writer.add_schema(STATE_SCHEMA, "jsonschema", STATE_JSON_SCHEMA.as_bytes())?;
+        let image_schema = writer.add_schema(
+            "foxglove.CompressedImage",
+            "jsonschema",
+            COMPRESSED_SCHEMA.as_bytes(),
+        )?;
+        let state_schema =
+            writer.add_schema(STATE_SCHEMA, "jsonschema", STATE_JSON_SCHEMA.as_bytes())?;
         let meta = BTreeMap::new();
         let left = writer.add_channel(image_schema, &image_topic(Camera::Left), "json", &meta)?;
         let right = writer.add_channel(image_schema, &image_topic(Camera::Right), "json", &meta)?;
@@ -246,7 +260,11 @@ impl McapFrameWriter {
             timestamp: FoxgloveTime::of(frame.state.state_stamp.unwrap_or(frame.stamp)),
             state: frame.state,
         };
-        self.put(self.state_channel, frame.stamp, &serde_json::to_vec(&state)?)?;
+        self.put(
+            self.state_channel,
+            frame.stamp,
+            &serde_json::to_vec(&state)?,
+        )?;
         let image = CompressedImage {
             timestamp: FoxgloveTime::of(frame.stamp),
             frame_id: camera_name(frame.camera).into(),
@@ -277,14 +295,28 @@ pub struct McapFrames {
 #[derive(Debug, Clone)]
 pub enum McapImage {
     Compressed(Vec<u8>),
-    Raw { width: u32, height: u32, encoding: String, step: u32, data: Vec<u8> },
+    Raw {
+        width: u32,
+        height: u32,
+        encoding: String,
+        step: u32,
+        data: Vec<u8>,
+    },
 }
 
 impl McapImage {
     pub fn decode(&self) -> Result<RgbImage> {
         match self {
-            McapImage::Compressed(bytes) => robot_agent::image_io::decode_rgb(bytes).map_err(Into::into),
-            McapImage::Raw { width, height, encoding, step, data } => raw_to_rgb(*width, *height, encoding, *step, data),
+            McapImage::Compressed(bytes) => {
+                robot_agent::image_io::decode_rgb(bytes).map_err(Into::into)
+            }
+            McapImage::Raw {
+                width,
+                height,
+                encoding,
+                step,
+                data,
+            } => raw_to_rgb(*width, *height, encoding, *step, data),
         }
     }
 }
@@ -297,14 +329,19 @@ fn raw_to_rgb(width: u32, height: u32, encoding: &str, step: u32, data: &[u8]) -
     };
     let (w, h, step) = (width as usize, height as usize, step as usize);
     if step < w * channels || data.len() < step * h.saturating_sub(1) + w * channels {
-        bail!("raw image of {width}×{height} ({encoding}, step {step}) holds only {} bytes", data.len());
+        bail!(
+            "raw image of {width}×{height} ({encoding}, step {step}) holds only {} bytes",
+            data.len()
+        );
     }
     let mut rgb = Vec::with_capacity(w * h * 3);
     for y in 0..h {
         let row = &data[y * step..y * step + w * channels];
         match encoding {
             "rgb8" => rgb.extend_from_slice(row),
-            "bgr8" => row.chunks_exact(3).for_each(|p| rgb.extend_from_slice(&[p[2], p[1], p[0]])),
+            "bgr8" => row
+                .chunks_exact(3)
+                .for_each(|p| rgb.extend_from_slice(&[p[2], p[1], p[0]])),
             _ => row.iter().for_each(|&v| rgb.extend_from_slice(&[v, v, v])),
         }
     }
@@ -333,28 +370,44 @@ pub fn read_mcap(path: &Path) -> Result<McapFrames> {
         let message = match message {
             Ok(m) => m,
             Err(e) => {
-                *out.skipped.entry(format!("unreadable record: {e}")).or_default() += 1;
+                *out.skipped
+                    .entry(format!("unreadable record: {e}"))
+                    .or_default() += 1;
                 break;
             }
         };
         let topic = message.channel.topic.as_str();
-        let schema = message.channel.schema.as_ref().map(|s| s.name.as_str()).unwrap_or("");
+        let schema = message
+            .channel
+            .schema
+            .as_ref()
+            .map(|s| s.name.as_str())
+            .unwrap_or("");
         let result: Result<()> = (|| {
             match schema {
                 "foxglove.CompressedImage" => {
                     let m: CompressedImage = serde_json::from_slice(&message.data)?;
-                    let camera = camera_of(topic, &m.frame_id).context("image topic names no camera")?;
+                    let camera =
+                        camera_of(topic, &m.frame_id).context("image topic names no camera")?;
                     let data = BASE64.decode(m.data.as_bytes())?;
-                    out.images.push((m.timestamp.stamp(), camera, McapImage::Compressed(data)));
+                    out.images
+                        .push((m.timestamp.stamp(), camera, McapImage::Compressed(data)));
                 }
                 "foxglove.RawImage" => {
                     let m: RawImage = serde_json::from_slice(&message.data)?;
-                    let camera = camera_of(topic, &m.frame_id).context("image topic names no camera")?;
+                    let camera =
+                        camera_of(topic, &m.frame_id).context("image topic names no camera")?;
                     let data = BASE64.decode(m.data.as_bytes())?;
                     out.images.push((
                         m.timestamp.stamp(),
                         camera,
-                        McapImage::Raw { width: m.width, height: m.height, encoding: m.encoding, step: m.step, data },
+                        McapImage::Raw {
+                            width: m.width,
+                            height: m.height,
+                            encoding: m.encoding,
+                            step: m.step,
+                            data,
+                        },
                     ));
                 }
                 STATE_SCHEMA => {
@@ -369,7 +422,8 @@ pub fn read_mcap(path: &Path) -> Result<McapFrames> {
             *out.skipped.entry(format!("{topic}: {e}")).or_default() += 1;
         }
     }
-    out.images.sort_by_key(|(s, c, _)| (*s, *c == Camera::Right));
+    out.images
+        .sort_by_key(|(s, c, _)| (*s, *c == Camera::Right));
     out.states.sort_by_key(|(s, _)| *s);
     Ok(out)
 }

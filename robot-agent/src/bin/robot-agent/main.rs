@@ -2,12 +2,15 @@
 //! publishes observations and status over Zenoh; `calibrate` fits a camera model to
 //! chessboard images; `train` fits the ball classifier.
 
+mod calibrate_cmd;
 mod defaults;
 mod frames_io;
 mod run;
+mod sim_patches;
 mod sim_source;
 mod sources;
 mod timer;
+mod train_cmd;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -23,6 +26,10 @@ struct Cli {
 enum Command {
     /// Finds the ball in camera frames and publishes it over Zenoh.
     Run(run::RunArgs),
+    /// Fits a camera model to chessboard images.
+    Calibrate(calibrate_cmd::CalibrateArgs),
+    /// Trains the ball classifier.
+    Train(train_cmd::TrainArgs),
 }
 
 fn main() -> Result<()> {
@@ -40,5 +47,7 @@ fn main() -> Result<()> {
                 .build()?;
             rt.block_on(run::run(args))
         }
+        Command::Calibrate(args) => calibrate_cmd::run(args),
+        Command::Train(args) => train_cmd::run(args),
     }
 }

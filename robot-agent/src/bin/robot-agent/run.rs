@@ -9,10 +9,10 @@ use crate::sources::{Captured, FrameSource, ImagesSource, McapSource, SourceSpec
 use crate::timer::StageTimer;
 use anyhow::{Context, Result};
 use proto::net::NetConfig;
-use proto::{BallState, KeySpace, Observation, Pitch, RobotStatus, Stamp, StageTiming};
+use proto::{BallState, KeySpace, Observation, Pitch, RobotStatus, StageTiming, Stamp};
 use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
-use robot_agent::camera::CameraModel;
 use robot_agent::calibrate::Calibration;
+use robot_agent::camera::CameraModel;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -89,17 +89,23 @@ struct Summary {
 }
 
 fn wall_now() -> Stamp {
-    let d = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
+    let d = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
     Stamp(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
 }
 
 /// The left and right camera models from a calibration file.
 pub fn load_models(path: Option<&Path>) -> Result<[CameraModel; 2]> {
     let text = match path {
-        Some(p) => std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
+        Some(p) => {
+            std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?
+        }
         None => crate::defaults::SIM_CALIBRATION.to_string(),
     };
-    let name = path.map_or("the built-in calibration".to_string(), |p| p.display().to_string());
+    let name = path.map_or("the built-in calibration".to_string(), |p| {
+        p.display().to_string()
+    });
     let doc: toml::Table = toml::from_str(&text).with_context(|| format!("{name} is not TOML"))?;
     let one = |v: &toml::Value| -> Result<CameraModel> {
         let c = Calibration::from_toml_str(&toml::to_string(v)?)?;
@@ -108,7 +114,9 @@ pub fn load_models(path: Option<&Path>) -> Result<[CameraModel; 2]> {
     match (doc.get("left"), doc.get("right")) {
         (Some(l), Some(r)) => Ok([one(l)?, one(r)?]),
         _ => {
-            let model = Calibration::from_toml_str(&text).with_context(|| format!("{name}: not a calibration"))?.model;
+            let model = Calibration::from_toml_str(&text)
+                .with_context(|| format!("{name}: not a calibration"))?
+                .model;
             Ok([model, model])
         }
     }
@@ -118,7 +126,8 @@ fn load_config(path: Option<&Path>) -> Result<PipelineConfig> {
     match path {
         None => Ok(PipelineConfig::default()),
         Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
             toml::from_str(&text).with_context(|| format!("{}: bad pipeline settings", p.display()))
         }
     }
@@ -163,7 +172,11 @@ fn perceive(
     stop: Arc<AtomicBool>,
 ) -> Result<Summary> {
     let pace = !args.fast && (source.live() || args.restamp);
-    let mut sink = args.record_frames.as_deref().map(FrameSink::create).transpose()?;
+    let mut sink = args
+        .record_frames
+        .as_deref()
+        .map(FrameSink::create)
+        .transpose()?;
     let mut timer = StageTimer::new();
     let mut summary = Summary::default();
     let started = Instant::now();
@@ -177,14 +190,18 @@ fn perceive(
             break;
         };
         let first_stamp = *first.get_or_insert(frame.stamp);
-        if args.duration.is_some_and(|d| frame.stamp.secs_since(first_stamp) > d) {
+        if args
+            .duration
+            .is_some_and(|d| frame.stamp.secs_since(first_stamp) > d)
+        {
             break;
         }
         if args.restamp {
             if summary.frames == 0 {
                 restamp_offset_ns = i128::from(wall_now().0) - i128::from(frame.stamp.0);
             }
-            frame.stamp = Stamp(u64::try_from(i128::from(frame.stamp.0) + restamp_offset_ns).unwrap_or(0));
+            frame.stamp =
+                Stamp(u64::try_from(i128::from(frame.stamp.0) + restamp_offset_ns).unwrap_or(0));
         }
         if pace {
             let ahead_s = frame.stamp.secs_since(wall_now());
@@ -263,7 +280,11 @@ fn perceive(
 
 fn open_source(args: &RunArgs) -> Result<Box<dyn FrameSource>> {
     Ok(match &args.source {
-        SourceSpec::Sim => Box::new(crate::sim_source::SimSource::new(&args.robot_id, &args.sim, wall_now())?),
+        SourceSpec::Sim => Box::new(crate::sim_source::SimSource::new(
+            &args.robot_id,
+            &args.sim,
+            wall_now(),
+        )?),
         SourceSpec::Images(dir) => Box::new(ImagesSource::open(dir.clone())?),
         SourceSpec::Mcap(file) => Box::new(McapSource::open(file.clone())?),
     })
@@ -272,7 +293,11 @@ fn open_source(args: &RunArgs) -> Result<Box<dyn FrameSource>> {
 fn print_summary(agent_id: &str, s: &Summary) {
     let mut ms = s.total_ms.clone();
     ms.sort_by(f64::total_cmp);
-    let q = |p: f64| ms.get(((ms.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN);
+    let q = |p: f64| {
+        ms.get(((ms.len() as f64 - 1.0) * p).round() as usize)
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
     println!(
         "{agent_id}: {} frames, {} observations; pipeline per frame median {:.2} ms, p99 {:.2} ms",
         s.frames,
@@ -295,10 +320,14 @@ fn print_summary(agent_id: &str, s: &Summary) {
 }
 
 pub async fn run(args: RunArgs) -> Result<()> {
-    anyhow::ensure!(proto::is_valid_id(&args.robot_id), "robot id {:?} is not valid", args.robot_id);
+    anyhow::ensure!(
+        proto::is_valid_id(&args.robot_id),
+        "robot id {:?} is not valid",
+        args.robot_id
+    );
     let models = load_models(args.calibration.as_deref())?;
     let config = load_config(args.config.as_deref())?;
-    let classifier = crate::defaults::classifier()?;
+    let classifier = crate::defaults::classifier(&config.detector)?;
     let agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;
     let source = open_source(&args)?;
     let stop = Arc::new(AtomicBool::new(false));
@@ -315,7 +344,9 @@ pub async fn run(args: RunArgs) -> Result<()> {
     if args.offline {
         let args = Arc::new(args);
         let a = args.clone();
-        let summary = tokio::task::spawn_blocking(move || perceive(agent, source, &a, shared, None, stop)).await??;
+        let summary =
+            tokio::task::spawn_blocking(move || perceive(agent, source, &a, shared, None, stop))
+                .await??;
         print_summary(&id, &summary);
         return Ok(());
     }
@@ -346,24 +377,31 @@ pub async fn run(args: RunArgs) -> Result<()> {
         let (shared, bad) = (shared.clone(), bad_states.clone());
         session
             .declare_subscriber(keys.ball_state())
-            .callback(move |sample| match proto::decode::<BallState>(&sample.payload().to_bytes()) {
-                Ok(state) => {
-                    if let Ok(mut s) = shared.lock() {
-                        *s = Some(state);
+            .callback(move |sample| {
+                match proto::decode::<BallState>(&sample.payload().to_bytes()) {
+                    Ok(state) => {
+                        if let Ok(mut s) = shared.lock() {
+                            *s = Some(state);
+                        }
                     }
-                }
-                Err(_) => {
-                    bad.fetch_add(1, Ordering::Relaxed);
+                    Err(_) => {
+                        bad.fetch_add(1, Ordering::Relaxed);
+                    }
                 }
             })
             .await
             .map_err(|e| anyhow::anyhow!("ball state subscriber: {e}"))?
     };
-    tracing::info!("{id}: publishing on {} and {}", keys.robot_obs(&id)?, keys.robot_status(&id)?);
+    tracing::info!(
+        "{id}: publishing on {} and {}",
+        keys.robot_obs(&id)?,
+        keys.robot_status(&id)?
+    );
     let (tx, mut rx) = mpsc::channel::<Outbound>(256);
     let args = Arc::new(args);
     let a = args.clone();
-    let worker = tokio::task::spawn_blocking(move || perceive(agent, source, &a, shared, Some(tx), stop));
+    let worker =
+        tokio::task::spawn_blocking(move || perceive(agent, source, &a, shared, Some(tx), stop));
     while let Some(msg) = rx.recv().await {
         let result = match msg {
             Outbound::Observation(o) => obs_pub.put(proto::encode(&o)).await,

@@ -64,14 +64,20 @@ impl SimSource {
             run.robot(robot_id).is_some(),
             "scenario {} has no robot {robot_id:?} (it has {})",
             args.scenario,
-            run.robots.iter().map(|r| r.id.as_str()).collect::<Vec<_>>().join(", ")
+            run.robots
+                .iter()
+                .map(|r| r.id.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
         let mut cam_cfg = CameraWorldConfig::default();
         if args.patterned_ball {
             cam_cfg.ball_look = patterned_ball();
         }
         let rig = CameraRig::new(LensModel::miro());
-        let times = CameraWorld::new(&run, &rig, cam_cfg, args.seed).frame_times().collect();
+        let times = CameraWorld::new(&run, &rig, cam_cfg, args.seed)
+            .frame_times()
+            .collect();
         Ok(SimSource {
             robot_id: robot_id.to_string(),
             run,
@@ -104,10 +110,19 @@ impl FrameSource for SimSource {
             pose_covariance: r.pose_covariance,
             head: r.head,
         };
-        for ((frame, truth), camera) in capture.frames.into_iter().zip([Camera::Left, Camera::Right]) {
+        for ((frame, truth), camera) in capture
+            .frames
+            .into_iter()
+            .zip([Camera::Left, Camera::Right])
+        {
             let image = RgbImage::new(frame.width, frame.height, frame.rgb)?;
             self.pending.push_back(Captured {
-                frame: StoredFrame { stamp, camera, image, state },
+                frame: StoredFrame {
+                    stamp,
+                    camera,
+                    image,
+                    state,
+                },
                 truth,
             });
         }

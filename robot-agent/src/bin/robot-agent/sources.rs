@@ -1,7 +1,9 @@
 //! Where camera frames come from: the simulator's rendered cameras, an image folder, or an
 //! MCAP recording.
 
-use crate::frames_io::{FrameRecord, McapFrames, StoredFrame, load_image, read_index, read_mcap, state_at};
+use crate::frames_io::{
+    FrameRecord, McapFrames, StoredFrame, load_image, read_index, read_mcap, state_at,
+};
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
 
@@ -53,7 +55,10 @@ impl ImagesSource {
     pub fn open(dir: PathBuf) -> Result<Self> {
         let records = read_index(&dir)?;
         tracing::info!("{}: {} frames", dir.display(), records.len());
-        Ok(ImagesSource { dir, records: records.into_iter() })
+        Ok(ImagesSource {
+            dir,
+            records: records.into_iter(),
+        })
     }
 }
 
@@ -64,7 +69,12 @@ impl FrameSource for ImagesSource {
         };
         let image = load_image(&self.dir, &r.file)?;
         Ok(Some(Captured {
-            frame: StoredFrame { stamp: r.stamp, camera: r.camera, image, state: r.state },
+            frame: StoredFrame {
+                stamp: r.stamp,
+                camera: r.camera,
+                image,
+                state: r.state,
+            },
             truth: None,
         }))
     }
@@ -88,9 +98,17 @@ impl McapSource {
             tracing::warn!("{}: skipped {n} message(s): {why}", path.display());
         }
         if frames.states.is_empty() && !frames.images.is_empty() {
-            bail!("{} has images but no /robot/state messages: frames cannot be projected without the robot's pose", path.display());
+            bail!(
+                "{} has images but no /robot/state messages: frames cannot be projected without the robot's pose",
+                path.display()
+            );
         }
-        tracing::info!("{}: {} images, {} states", path.display(), frames.images.len(), frames.states.len());
+        tracing::info!(
+            "{}: {} images, {} states",
+            path.display(),
+            frames.images.len(),
+            frames.states.len()
+        );
         Ok(McapSource { frames, next: 0 })
     }
 }
@@ -108,7 +126,12 @@ impl FrameSource for McapSource {
             };
             let state = state_at(&self.frames.states, *stamp).context("no robot state")?;
             return Ok(Some(Captured {
-                frame: StoredFrame { stamp: *stamp, camera: *camera, image, state },
+                frame: StoredFrame {
+                    stamp: *stamp,
+                    camera: *camera,
+                    image,
+                    state,
+                },
                 truth: None,
             }));
         }

@@ -1,0 +1,133 @@
+//! Labelled candidate patches from the simulator, for training the ball classifier the way
+//! the seed collected its data: the candidates the detector's first stages really propose,
+//! each labelled by the renderer's ground truth.
+//!
+//! Frames come from simulated matches through every robot's cameras. Candidates are mined
+//! with two colour windows: the ball's own (wide) window, which proposes the ball and
+//! orange-ish look-alikes (wall markings, partly hidden balls), and a window for white and
+//! grey things, which proposes robot heads and bodies, the walls and the patterned ball's
+//! white patches: the round look-alikes the shape filter must learn to refuse.
+
+use anyhow::Result;
+use robot_agent::detect::{Detector, DetectorConfig, HoughOnly, NoClock};
+use robot_agent::hsv::HsvThresholds;
+use robot_agent::image::RgbImage;
+use robot_agent::patch::{Patch, PatchConfig, extract};
+use sim::camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
+use sim::lens::LensModel;
+use sim::render::CameraRig;
+use sim::render_scene::BallTruth;
+use sim::{SimConfig, run_scenario};
+
+/// How a candidate relates to the true ball.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Label {
+    Ball,
+    NotBall,
+    /// Overlaps the ball without matching it: left out of training.
+    Unclear,
+}
+
+/// Labels a candidate circle against the renderer's truth.
+pub fn label(center_px: [f64; 2], radius_px: f64, truth: Option<&BallTruth>) -> Label {
+    let Some(t) = truth.filter(|t| t.in_frame) else {
+        return Label::NotBall;
+    };
+    let Some(c) = t.center_px else {
+        return Label::NotBall;
+    };
+    let d = (center_px[0] - c[0]).hypot(center_px[1] - c[1]);
+    if d <= (0.3 * t.radius_px).max(1.5)
+        && (radius_px - t.radius_px).abs() <= 0.3 * t.radius_px.max(4.0)
+        && t.visible_fraction >= 0.6
+    {
+        Label::Ball
+    } else if d > t.radius_px + radius_px {
+        Label::NotBall
+    } else {
+        Label::Unclear
+    }
+}
+
+/// Mining windows: the ball's widest colour window and white/grey.
+fn miners() -> Result<Vec<Detector>> {
+    let ball = DetectorConfig::default();
+    let ball_wide = DetectorConfig {
+        thresholds: ball.limits,
+        ..ball
+    };
+    let white = HsvThresholds {
+        hue_lo_deg: 0.0,
+        hue_hi_deg: 360.0,
+        sat_min: 0.0,
+        sat_max: 0.25,
+        val_min: 0.55,
+        val_max: 1.0,
+    };
+    let white_cfg = DetectorConfig {
+        thresholds: white,
+        limits: white,
+        ..ball
+    };
+    Ok(vec![Detector::new(ball_wide)?, Detector::new(white_cfg)?])
+}
+
+/// Positive and negative patches from `matches` simulated matches of `seconds` each.
+pub fn mine(
+    matches: u64,
+    seconds: f64,
+    seed: u64,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Vec<Patch>, Vec<Patch>)> {
+    let rig = CameraRig::new(LensModel::miro());
+    let detectors = miners()?;
+    let patch_cfg = PatchConfig::default();
+    let (mut pos, mut neg) = (Vec::new(), Vec::new());
+    for m in 0..matches {
+        let match_seed = seed.wrapping_mul(1000).wrapping_add(m);
+        let cfg = SimConfig {
+            duration_s: Some(seconds),
+            ..SimConfig::default()
+        };
+        let run = run_scenario("match", match_seed, &cfg)?;
+        let mut cam = CameraWorldConfig {
+            frame_rate_hz: 2.0,
+            ..CameraWorldConfig::default()
+        };
+        if m % 2 == 1 {
+            cam.ball_look = patterned_ball();
+        }
+        let world = CameraWorld::new(&run, &rig, cam, match_seed);
+        let ids: Vec<String> = run.robots.iter().map(|r| r.id.clone()).collect();
+        for (k, t) in world.frame_times().enumerate() {
+            for id in &ids {
+                let capture = world.capture(id, t, k as u64);
+                for (frame, truth) in &capture.frames {
+                    let image = RgbImage::new(frame.width, frame.height, frame.rgb.clone())?;
+                    for detector in &detectors {
+                        for c in detector.detect(&image, &HoughOnly, &mut NoClock)? {
+                            let circle = c.circle;
+                            let Ok(p) =
+                                extract(&image, circle.center_px, circle.radius_px, &patch_cfg)
+                            else {
+                                continue;
+                            };
+                            match label(circle.center_px, circle.radius_px, truth.as_ref()) {
+                                Label::Ball => pos.push(p),
+                                Label::NotBall => neg.push(p),
+                                Label::Unclear => {}
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        progress(&format!(
+            "match {}/{matches}: {} ball and {} other candidates so far",
+            m + 1,
+            pos.len(),
+            neg.len()
+        ));
+    }
+    Ok((pos, neg))
+}

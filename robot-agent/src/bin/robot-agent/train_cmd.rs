@@ -1,0 +1,99 @@
+//! `robot-agent train`: the HOG + SVM ball classifier from labelled patches.
+
+use anyhow::{Context, Result, bail};
+use robot_agent::patch::{Patch, PatchConfig, extract};
+use robot_agent::train::{TrainConfig, train};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Debug, clap::Args)]
+pub struct TrainArgs {
+    /// Folder of ball patches (PNG or JPEG, any size; each image is one candidate window).
+    #[arg(long, requires = "negatives", required_unless_present = "from_sim")]
+    pub positives: Option<PathBuf>,
+    /// Folder of non-ball patches.
+    #[arg(long, requires = "positives")]
+    pub negatives: Option<PathBuf>,
+    /// Mine labelled candidates from simulated matches instead.
+    #[arg(long, conflicts_with_all = ["positives", "negatives"])]
+    pub from_sim: bool,
+    /// Simulated matches mined with `--from-sim`.
+    #[arg(long, default_value_t = 6)]
+    pub matches: u64,
+    /// Seconds of each mined match.
+    #[arg(long, default_value_t = 30.0)]
+    pub seconds: f64,
+    /// Seed of the mined matches, the split and the folds.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Where to write the model (JSON).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Every image of a folder as a patch: the whole image is the candidate window.
+fn folder_patches(dir: &Path) -> Result<Vec<Patch>> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
+        })
+        .collect();
+    paths.sort();
+    let cfg = PatchConfig::default();
+    let mut out = Vec::new();
+    for p in &paths {
+        let image = match robot_agent::image_io::load_rgb(p) {
+            Ok(i) => i,
+            Err(e) => {
+                eprintln!("skipping {}: {e}", p.display());
+                continue;
+            }
+        };
+        let (w, h) = (f64::from(image.width()), f64::from(image.height()));
+        let centre = [(w - 1.0) / 2.0, (h - 1.0) / 2.0];
+        let radius = w.min(h) / cfg.window_over_radius;
+        match extract(&image, centre, radius, &cfg) {
+            Ok(patch) => out.push(patch),
+            Err(e) => eprintln!("skipping {}: {e}", p.display()),
+        }
+    }
+    Ok(out)
+}
+
+pub fn run(args: TrainArgs) -> Result<()> {
+    let started = Instant::now();
+    let mut progress = |line: &str| eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64());
+    let (positives, negatives) = match (&args.positives, &args.negatives) {
+        (Some(p), Some(n)) => (folder_patches(p)?, folder_patches(n)?),
+        _ if args.from_sim => {
+            crate::sim_patches::mine(args.matches, args.seconds, args.seed, &mut progress)?
+        }
+        _ => bail!("give --positives and --negatives, or --from-sim"),
+    };
+    progress(&format!(
+        "{} ball patches, {} others",
+        positives.len(),
+        negatives.len()
+    ));
+    let cfg = TrainConfig {
+        seed: args.seed,
+        ..TrainConfig::default()
+    };
+    let (model, report) = train(&positives, &negatives, &cfg, &mut progress)?;
+    println!("{report}");
+    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)?;
+    }
+    std::fs::write(&args.out, model.to_json()?)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "wrote {} ({} support vectors)",
+        args.out.display(),
+        model.support_vector_count()
+    );
+    Ok(())
+}

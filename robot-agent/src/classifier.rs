@@ -1,0 +1,70 @@
+//! The learned half of the detector: the k-means dominant-colour check and the HOG + SVM
+//! filter as one [`CandidateClassifier`].
+//!
+//! The colour check runs first because it is cheap and rejects blobs whose pixels are
+//! mostly not the ball's colour (a white robot part under warm light that only grazes the
+//! colour window, a stripe across a wall marking). The survivors' 32×32 patches go through
+//! HOG and the SVM, whose Platt-calibrated output is the probability that the candidate is
+//! the ball.
+
+use crate::detect::CandidateClassifier;
+use crate::hog::hog;
+use crate::hough::Circle;
+use crate::hsv::HsvThresholds;
+use crate::image::RgbImage;
+use crate::kmeans::{ColourCheckConfig, colour_check};
+use crate::patch::{PatchConfig, extract};
+use crate::svm::{Model, SvmError};
+
+/// The default model, trained on the simulator's rendered candidates by
+/// `robot-agent train --from-sim`.
+pub const DEFAULT_MODEL_JSON: &str = include_str!("../data/ball-classifier.json");
+
+/// Colour check, then HOG + SVM.
+#[derive(Debug, Clone)]
+pub struct BallClassifier {
+    model: Model,
+    patch: PatchConfig,
+    colour: ColourCheckConfig,
+    /// The widest colour window the ball may take (the detector's adaptation limits).
+    colours: HsvThresholds,
+}
+
+impl BallClassifier {
+    pub fn new(model: Model, colours: HsvThresholds) -> Self {
+        BallClassifier {
+            model,
+            patch: PatchConfig::default(),
+            colour: ColourCheckConfig::default(),
+            colours,
+        }
+    }
+
+    /// The shipped model.
+    pub fn default_model() -> Result<Model, SvmError> {
+        Model::from_json(DEFAULT_MODEL_JSON)
+    }
+
+    /// The SVM's probability for a candidate, without the colour check.
+    pub fn svm_probability(&self, image: &RgbImage, circle: &Circle) -> Option<f64> {
+        let patch = extract(image, circle.center_px, circle.radius_px, &self.patch).ok()?;
+        self.model.probability(&hog(&patch)).ok()
+    }
+}
+
+impl CandidateClassifier for BallClassifier {
+    fn probability(&self, image: &RgbImage, circle: &Circle) -> Option<f64> {
+        let colour = colour_check(
+            image,
+            circle.center_px,
+            circle.radius_px,
+            &self.colours,
+            &self.colour,
+        )
+        .ok()?;
+        if !colour.passes {
+            return None;
+        }
+        self.svm_probability(image, circle)
+    }
+}
