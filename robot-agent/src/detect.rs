@@ -7,26 +7,30 @@
 //! 2. `cleanup`: an opening removes speckle.
 //! 3. `blobs`: connected components, largest first; each one's box, grown by a margin, is a
 //!    region of interest.
-//! 4. `hough`: in each region, a closing fills the holes that a patterned ball's white
-//!    patches leave, then the circular Hough transform finds circles.
+//! 4. `hough`: each region is resampled as a local perspective view of the calibrated
+//!    camera (so that a ball is round even at the edge of the fisheye), a closing fills
+//!    the holes that a patterned ball's white patches leave, then the circular Hough
+//!    transform finds circles.
 //! 5. `classify`: each circle goes through the caller's [`CandidateClassifier`] (the HOG +
-//!    SVM filter and the dominant-colour check in the agent), which gives the probability
-//!    that it is the ball.
+//!    SVM filter and the dominant-colour check in the agent) on the same local view, which
+//!    gives the probability that it is the ball.
 //!
 //! World validation and the choice of at most one ball per frame happen after projection
 //! (see [`crate::pipeline`]).
 
+use crate::camera::CameraModel;
 use crate::components::largest_components;
 use crate::hough::{Circle, HoughConfig, HoughError};
 use crate::hsv::{HsvError, HsvThresholds, MaskLut};
 use crate::image::{ImageError, Mask, RgbImage};
 use crate::morphology::{close, open};
+use crate::rectify::LocalView;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// The detector's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
     /// The ball's colour window.
     pub thresholds: HsvThresholds,
@@ -57,7 +61,7 @@ impl Default for DetectorConfig {
                 hue_hi_deg: 42.0,
                 sat_min: 0.45,
                 sat_max: 1.0,
-                val_min: 0.2,
+                val_min: 0.1,
                 val_max: 1.0,
             },
             limits: HsvThresholds {
@@ -65,7 +69,7 @@ impl Default for DetectorConfig {
                 hue_hi_deg: 55.0,
                 sat_min: 0.3,
                 sat_max: 1.0,
-                val_min: 0.1,
+                val_min: 0.06,
                 val_max: 1.0,
             },
             adapt_rate: 0.1,
@@ -123,9 +127,40 @@ impl CandidateClassifier for HoughOnly {
 /// A circle that passed the classifier.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
+    /// The circle's centre in the frame; its radius in the frame's (or the local view's)
+    /// pixels.
     pub circle: Circle,
     /// The classifier's probability that this is the ball.
     pub probability: f64,
+    /// Half the angle the ball subtends at the camera, when a camera model was given.
+    pub angular_radius_rad: Option<f64>,
+}
+
+/// A circle the colour and shape stages propose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Proposal {
+    /// Centre in the frame; radius in the view's pixels (the frame's scale there).
+    pub frame: Circle,
+    /// The circle in its local view (or the frame, without a view).
+    pub local: Circle,
+    /// Index of its local view in [`Proposals::views`].
+    pub view: Option<usize>,
+    /// Half the angle the ball subtends at the camera, when a camera model was given.
+    pub angular_radius_rad: Option<f64>,
+}
+
+/// A frame's proposals and the local views they were found in.
+#[derive(Debug, Clone, Default)]
+pub struct Proposals {
+    pub views: Vec<RgbImage>,
+    pub items: Vec<Proposal>,
+}
+
+impl Proposals {
+    /// The image a proposal's `local` circle refers to.
+    pub fn image<'a>(&'a self, p: &Proposal, frame: &'a RgbImage) -> &'a RgbImage {
+        p.view.and_then(|i| self.views.get(i)).unwrap_or(frame)
+    }
 }
 
 /// The image half of the ball detector, with its lighting-adapted colour window.
@@ -160,13 +195,33 @@ impl Detector {
         &self.thresholds
     }
 
-    /// The candidates in a frame, most probable first.
-    pub fn detect(
+    /// Closes a region's mask and finds its circles.
+    fn circles(&self, roi: Mask) -> Result<Vec<Circle>, DetectError> {
+        let roi = if self.config.close_radius_px > 0 {
+            close(&roi, self.config.close_radius_px)
+        } else {
+            roi
+        };
+        Ok(crate::hough::detect(
+            roi.data(),
+            roi.width() as usize,
+            roi.height() as usize,
+            &self.config.hough,
+        )?)
+    }
+
+    /// The circles of a frame before classification.
+    ///
+    /// With the camera's calibrated `model`, each blob is searched in its own local
+    /// perspective view ([`LocalView`]), where a ball is round even at the edge of a
+    /// fisheye image; proposals then carry that view and their angular radius. Without a
+    /// model the frame is searched as it is.
+    pub fn propose(
         &self,
         image: &RgbImage,
-        classifier: &dyn CandidateClassifier,
+        model: Option<&CameraModel>,
         clock: &mut dyn StageClock,
-    ) -> Result<Vec<Candidate>, DetectError> {
+    ) -> Result<Proposals, DetectError> {
         let cfg = &self.config;
         let mask = self.lut.apply(image);
         clock.mark("mask");
@@ -178,41 +233,94 @@ impl Detector {
         clock.mark("cleanup");
         let blobs = largest_components(&mask, cfg.min_blob_area_px, cfg.max_blobs);
         clock.mark("blobs");
-        let mut circles = Vec::new();
+        // Circles per blob, in the blob's local view (with a model) or in the frame.
+        let mut found: Vec<(Option<LocalView>, Vec<Circle>)> = Vec::new();
         for blob in &blobs {
             let m = cfg.roi_margin_px + cfg.close_radius_px;
-            let x0 = blob.bbox.x_min.saturating_sub(m);
-            let y0 = blob.bbox.y_min.saturating_sub(m);
-            let x1 = (blob.bbox.x_max + m).min(mask.width() - 1);
-            let y1 = (blob.bbox.y_max + m).min(mask.height() - 1);
-            let roi = crop(&mask, x0, y0, x1 - x0 + 1, y1 - y0 + 1)?;
-            let roi = if cfg.close_radius_px > 0 {
-                close(&roi, cfg.close_radius_px)
-            } else {
-                roi
-            };
-            let found = crate::hough::detect(
-                roi.data(),
-                roi.width() as usize,
-                roi.height() as usize,
-                &cfg.hough,
-            )?;
-            circles.extend(found.into_iter().map(|c| Circle {
-                center_px: [
-                    c.center_px[0] + f64::from(x0),
-                    c.center_px[1] + f64::from(y0),
-                ],
-                ..c
-            }));
+            match model {
+                Some(model) => {
+                    let b = &blob.bbox;
+                    let half = 0.5 * f64::from((b.x_max - b.x_min).max(b.y_max - b.y_min) + 1)
+                        + f64::from(m);
+                    let Some(view) = LocalView::new(model, blob.centroid_px, half) else {
+                        continue;
+                    };
+                    let circles = self.circles(view.sample_mask(&mask)?)?;
+                    found.push((Some(view), circles));
+                }
+                None => {
+                    let x0 = blob.bbox.x_min.saturating_sub(m);
+                    let y0 = blob.bbox.y_min.saturating_sub(m);
+                    let x1 = (blob.bbox.x_max + m).min(mask.width() - 1);
+                    let y1 = (blob.bbox.y_max + m).min(mask.height() - 1);
+                    let roi = crop(&mask, x0, y0, x1 - x0 + 1, y1 - y0 + 1)?;
+                    let shift = |c: Circle| Circle {
+                        center_px: [
+                            c.center_px[0] + f64::from(x0),
+                            c.center_px[1] + f64::from(y0),
+                        ],
+                        ..c
+                    };
+                    found.push((None, self.circles(roi)?.into_iter().map(shift).collect()));
+                }
+            }
+        }
+        let mut proposals = Proposals::default();
+        for (view, circles) in found {
+            match (view, model) {
+                (Some(view), Some(model)) => {
+                    if circles.is_empty() {
+                        continue;
+                    }
+                    let index = proposals.views.len();
+                    proposals.views.push(view.sample_rgb(image)?);
+                    for c in circles {
+                        let Some(center_px) = model.project(view.ray(c.center_px)) else {
+                            continue;
+                        };
+                        proposals.items.push(Proposal {
+                            frame: Circle { center_px, ..c },
+                            local: c,
+                            view: Some(index),
+                            angular_radius_rad: Some(
+                                view.angular_radius_rad(c.center_px, c.radius_px),
+                            ),
+                        });
+                    }
+                }
+                _ => proposals
+                    .items
+                    .extend(circles.into_iter().map(|c| Proposal {
+                        frame: c,
+                        local: c,
+                        view: None,
+                        angular_radius_rad: None,
+                    })),
+            }
         }
         clock.mark("hough");
-        let mut candidates: Vec<Candidate> = circles
-            .into_iter()
-            .filter_map(|circle| {
-                let probability = classifier.probability(image, &circle)?;
+        Ok(proposals)
+    }
+
+    /// The candidates in a frame, most probable first: [`Detector::propose`], then the
+    /// classifier on each proposal's view.
+    pub fn detect(
+        &self,
+        image: &RgbImage,
+        model: Option<&CameraModel>,
+        classifier: &dyn CandidateClassifier,
+        clock: &mut dyn StageClock,
+    ) -> Result<Vec<Candidate>, DetectError> {
+        let proposals = self.propose(image, model, clock)?;
+        let mut candidates: Vec<Candidate> = proposals
+            .items
+            .iter()
+            .filter_map(|p| {
+                let probability = classifier.probability(proposals.image(p, image), &p.local)?;
                 Some(Candidate {
-                    circle,
+                    circle: p.frame,
                     probability,
+                    angular_radius_rad: p.angular_radius_rad,
                 })
             })
             .collect();
@@ -221,15 +329,26 @@ impl Detector {
         Ok(candidates)
     }
 
-    /// Moves the colour window towards the colours inside an accepted ball's circle.
+    /// Moves the colour window towards the colours inside an accepted ball's circle: the hue
+    /// window slides, the lower saturation and value bounds may drop below the configured
+    /// ones (never below the limits) and never rise above them.
     pub fn adapt(&mut self, image: &RgbImage, ball: &Circle) -> Result<(), DetectError> {
         let samples = disc_hsv(image, ball, 0.7);
-        let next = crate::hsv::adapt(
+        let mut next = crate::hsv::adapt(
             &self.thresholds,
             &samples,
             self.config.adapt_rate,
             &self.config.limits,
         )?;
+        // Light changes faster than the window follows it: tightening a bound to the last
+        // ball's colours loses the ball at the next exposure step. So the window only ever
+        // widens past the configured one (towards the limits) and its hue slides; the upper
+        // bounds stay at the limits.
+        let base = &self.config.thresholds;
+        next.sat_min = next.sat_min.min(base.sat_min);
+        next.val_min = next.val_min.min(base.val_min);
+        next.sat_max = self.config.limits.sat_max;
+        next.val_max = self.config.limits.val_max;
         if next != self.thresholds {
             self.lut = MaskLut::new(&next)?;
             self.thresholds = next;

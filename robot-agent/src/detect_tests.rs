@@ -79,7 +79,9 @@ fn finds_a_shaded_ball_and_ignores_an_orange_stripe() {
     }
     let detector = Detector::new(DetectorConfig::default()).unwrap();
     let mut marks = Marks(Vec::new());
-    let found = detector.detect(&image, &HoughOnly, &mut marks).unwrap();
+    let found = detector
+        .detect(&image, None, &HoughOnly, &mut marks)
+        .unwrap();
     assert_eq!(
         marks.0,
         ["mask", "cleanup", "blobs", "hough", "classify"],
@@ -102,7 +104,9 @@ fn a_patterned_ball_is_found_through_its_white_patches() {
     let mut image = background();
     draw_ball(&mut image, [150.2, 100.6], 20.0, true);
     let detector = Detector::new(DetectorConfig::default()).unwrap();
-    let found = detector.detect(&image, &HoughOnly, &mut NoClock).unwrap();
+    let found = detector
+        .detect(&image, None, &HoughOnly, &mut NoClock)
+        .unwrap();
     assert!(!found.is_empty());
     let c = found[0].circle;
     assert!(
@@ -124,7 +128,9 @@ fn classifier_rejections_and_order_are_kept() {
     draw_ball(&mut image, [200.0, 90.0], 14.0, false);
     draw_ball(&mut image, [60.0, 120.0], 8.0, false);
     let detector = Detector::new(DetectorConfig::default()).unwrap();
-    let found = detector.detect(&image, &RejectSmall, &mut NoClock).unwrap();
+    let found = detector
+        .detect(&image, None, &RejectSmall, &mut NoClock)
+        .unwrap();
     assert_eq!(found.len(), 1);
     assert_eq!(found[0].probability, 0.9);
 }
@@ -143,7 +149,7 @@ fn adaptation_follows_a_darker_ball() {
         image
             .data()
             .iter()
-            .map(|v| (f64::from(*v) * 0.3) as u8)
+            .map(|v| (f64::from(*v) * 0.15) as u8)
             .collect(),
     )
     .unwrap();
@@ -157,6 +163,16 @@ fn adaptation_follows_a_darker_ball() {
     }
     assert!(detector.thresholds().val_min < before.val_min);
     assert!(detector.thresholds().val_min >= DetectorConfig::default().limits.val_min);
+    assert_eq!(
+        detector.thresholds().val_max,
+        DetectorConfig::default().limits.val_max
+    );
+    // A bright ball afterwards never tightens the window past the configured one.
+    for _ in 0..20 {
+        detector.adapt(&image, &circle).unwrap();
+    }
+    assert!(detector.thresholds().val_min <= before.val_min);
+    assert!(detector.thresholds().sat_min <= before.sat_min);
 }
 
 #[test]

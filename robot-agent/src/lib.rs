@@ -34,6 +34,7 @@
 //!   search by cross-validation, held-out metrics.
 //! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
 //! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
+//! - [`rectify`]: local perspective views of a fisheye frame, where a ball is round.
 //! - [`detect`]: one frame to ball candidates through the stages above.
 //!
 //! Projection and the agent:
@@ -69,6 +70,7 @@ pub mod patch;
 mod patch_fixtures;
 pub mod pipeline;
 pub mod projection;
+pub mod rectify;
 mod rng;
 pub mod svm;
 mod svm_model;

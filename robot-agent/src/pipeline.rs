@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 
 /// Settings of projection and world validation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct ValidationConfig {
     /// How far beyond the pitch's inner edge a floor point may lie, metres.
     pub pitch_margin_m: f64,
@@ -133,7 +133,7 @@ pub fn process_frame(
     ctx: &FrameContext<'_>,
     clock: &mut dyn StageClock,
 ) -> Result<FrameResult, DetectError> {
-    let candidates = detector.detect(image, classifier, clock)?;
+    let candidates = detector.detect(image, Some(ctx.model), classifier, clock)?;
     let mut result = FrameResult::default();
     for candidate in candidates {
         match validate(candidate, noise, validation, ctx) {
@@ -176,9 +176,13 @@ fn validate(
     if outside_m > cfg.pitch_margin_m {
         return Err(Rejection::OffPitch { outside_m });
     }
-    if let Some(seen_m) =
-        distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
-    {
+    let seen_m = match candidate.angular_radius_rad {
+        Some(alpha) if alpha > 0.0 => Some(ball_radius_m / alpha.sin()),
+        _ => {
+            distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
+        }
+    };
+    if let Some(seen_m) = seen_m {
         let cam = crate::kinematics::camera_pose(&ctx.pose, &ctx.head, ctx.camera);
         let drop_m = cam.centre_m.z - ball_radius_m;
         let ground_m = floor.range_m.hypot(drop_m);

@@ -42,7 +42,7 @@ pub enum ProjectionError {
 
 /// The uncertainties fed into the projection, besides the robot's own pose covariance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct ProjectionNoise {
     /// Standard deviation of a small ball's centre, pixels.
     pub centre_sigma_px: f64,

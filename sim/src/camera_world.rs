@@ -98,7 +98,12 @@ fn robot_index(run: &SimRun, id: &str) -> u64 {
 
 impl<'a> CameraWorld<'a> {
     pub fn new(run: &'a SimRun, rig: &'a CameraRig, cfg: CameraWorldConfig, seed: u64) -> Self {
-        CameraWorld { run, rig, cfg, seed }
+        CameraWorld {
+            run,
+            rig,
+            cfg,
+            seed,
+        }
     }
 
     pub fn run(&self) -> &SimRun {
@@ -153,7 +158,10 @@ impl<'a> CameraWorld<'a> {
                 base.lift_rad + 0.06 * wander(self.seed, "lift", k, t_s),
                 LIFT_RANGE_RAD,
             ),
-            yaw_rad: clamp(0.6 * bearing, (YAW_RANGE_RAD.0 * 0.8, YAW_RANGE_RAD.1 * 0.8)),
+            yaw_rad: clamp(
+                0.6 * bearing,
+                (YAW_RANGE_RAD.0 * 0.8, YAW_RANGE_RAD.1 * 0.8),
+            ),
             pitch_rad: clamp(
                 base.pitch_rad + 0.05 * wander(self.seed, "pitch", k, t_s),
                 PITCH_RANGE_RAD,
@@ -164,7 +172,11 @@ impl<'a> CameraWorld<'a> {
     /// What robot `id` reads at `t_s` given its true head joints.
     pub fn reading(&self, id: &str, t_s: f64, head: HeadJoints) -> RobotReading {
         let k = robot_index(self.run, id);
-        let pose = self.run.robot(id).map(|r| r.pose_at(t_s)).unwrap_or_default();
+        let pose = self
+            .run
+            .robot(id)
+            .map(|r| r.pose_at(t_s))
+            .unwrap_or_default();
         let [s_xy, s_th] = self.cfg.pose_error_sigma;
         let w = |name: &str| wander(self.seed, name, k, t_s);
         let sj = self.cfg.joint_error_sigma_rad;
@@ -220,7 +232,11 @@ impl<'a> CameraWorld<'a> {
 
     /// Renders both cameras of robot `id` at `t_s`; `frame_index` picks the noise.
     pub fn capture(&self, id: &str, t_s: f64, frame_index: u64) -> CameraCapture {
-        let true_pose = self.run.robot(id).map(|r| r.pose_at(t_s)).unwrap_or_default();
+        let true_pose = self
+            .run
+            .robot(id)
+            .map(|r| r.pose_at(t_s))
+            .unwrap_or_default();
         let true_head = self.head_at(id, t_s);
         let scene = self.scene_at(id, t_s);
         let k = robot_index(self.run, id);

@@ -85,6 +85,8 @@ struct Summary {
     truth_visible: u64,
     truth_hits: u64,
     false_sightings: u64,
+    /// Visible balls not found, by what happened to them.
+    misses: std::collections::BTreeMap<String, u64>,
     total_ms: Vec<f64>,
 }
 
@@ -226,15 +228,33 @@ fn perceive(
         summary.total_ms.push(timer.frame_ms());
         if let Some(t) = &truth {
             summary.truth_frames += 1;
-            let visible = t.in_frame && t.visible_fraction >= 0.5 && t.radius_px >= 4.0;
+            let visible = t.in_frame
+                && t.visible_fraction >= 0.5
+                && t.radius_px >= 4.0
+                && t.center_px.is_some_and(|c| on_image(c, &frame.image));
             summary.truth_visible += u64::from(visible);
-            if let (Some(o), Some(c)) = (&outcome.observation, t.center_px) {
-                let pixel = o.pixel.map(|p| [p.u_px, p.v_px]).unwrap_or_default();
-                let hit = (pixel[0] - c[0]).hypot(pixel[1] - c[1]) <= t.radius_px.max(4.0);
-                summary.truth_hits += u64::from(hit && visible);
-                summary.false_sightings += u64::from(!hit);
-            } else if outcome.observation.is_some() {
-                summary.false_sightings += 1;
+            let near = |p: [f64; 2]| {
+                t.center_px
+                    .is_some_and(|c| (p[0] - c[0]).hypot(p[1] - c[1]) <= t.radius_px.max(4.0))
+            };
+            let hit = outcome
+                .observation
+                .as_ref()
+                .and_then(|o| o.pixel)
+                .is_some_and(|p| near([p.u_px, p.v_px]));
+            summary.truth_hits += u64::from(hit && visible);
+            summary.false_sightings += u64::from(outcome.observation.is_some() && !hit);
+            if visible && !hit {
+                let why = outcome
+                    .result
+                    .rejected
+                    .iter()
+                    .find(|(c, _)| near(c.center_px))
+                    .map_or_else(
+                        || "no candidate".to_string(),
+                        |(_, why)| why.reason().to_string(),
+                    );
+                *summary.misses.entry(why).or_default() += 1;
             }
         }
         if let Some(o) = outcome.observation {
@@ -278,6 +298,12 @@ fn perceive(
     Ok(summary)
 }
 
+/// Whether a pixel lies on the image.
+fn on_image(p: [f64; 2], image: &robot_agent::image::RgbImage) -> bool {
+    (0.0..f64::from(image.width())).contains(&p[0])
+        && (0.0..f64::from(image.height())).contains(&p[1])
+}
+
 fn open_source(args: &RunArgs) -> Result<Box<dyn FrameSource>> {
     Ok(match &args.source {
         SourceSpec::Sim => Box::new(crate::sim_source::SimSource::new(
@@ -316,6 +342,9 @@ fn print_summary(agent_id: &str, s: &Summary) {
             s.false_sightings,
             100.0 * precision
         );
+        for (why, n) in &s.misses {
+            println!("  missed: {why}: {n}");
+        }
     }
 }
 

@@ -2,14 +2,17 @@
 //! the seed collected its data: the candidates the detector's first stages really propose,
 //! each labelled by the renderer's ground truth.
 //!
-//! Frames come from simulated matches through every robot's cameras. Candidates are mined
+//! Frames come from simulated matches through every robot's cameras, and candidates are
+//! proposed in their local views through the agent's calibration of the simulated camera,
+//! exactly as the running agent sees them. Candidates are mined
 //! with two colour windows: the ball's own (wide) window, which proposes the ball and
 //! orange-ish look-alikes (wall markings, partly hidden balls), and a window for white and
 //! grey things, which proposes robot heads and bodies, the walls and the patterned ball's
 //! white patches: the round look-alikes the shape filter must learn to refuse.
 
 use anyhow::Result;
-use robot_agent::detect::{Detector, DetectorConfig, HoughOnly, NoClock};
+use robot_agent::camera::CameraModel;
+use robot_agent::detect::{Detector, DetectorConfig, NoClock};
 use robot_agent::hsv::HsvThresholds;
 use robot_agent::image::RgbImage;
 use robot_agent::patch::{Patch, PatchConfig, extract};
@@ -74,6 +77,7 @@ fn miners() -> Result<Vec<Detector>> {
 
 /// Positive and negative patches from `matches` simulated matches of `seconds` each.
 pub fn mine(
+    model: &CameraModel,
     matches: u64,
     seconds: f64,
     seed: u64,
@@ -105,16 +109,17 @@ pub fn mine(
                 for (frame, truth) in &capture.frames {
                     let image = RgbImage::new(frame.width, frame.height, frame.rgb.clone())?;
                     for detector in &detectors {
-                        for c in detector.detect(&image, &HoughOnly, &mut NoClock)? {
-                            let circle = c.circle;
-                            let Ok(p) =
-                                extract(&image, circle.center_px, circle.radius_px, &patch_cfg)
+                        let proposals = detector.propose(&image, Some(model), &mut NoClock)?;
+                        for p in &proposals.items {
+                            let view = proposals.image(p, &image);
+                            let Ok(patch) =
+                                extract(view, p.local.center_px, p.local.radius_px, &patch_cfg)
                             else {
                                 continue;
                             };
-                            match label(circle.center_px, circle.radius_px, truth.as_ref()) {
-                                Label::Ball => pos.push(p),
-                                Label::NotBall => neg.push(p),
+                            match label(p.frame.center_px, p.frame.radius_px, truth.as_ref()) {
+                                Label::Ball => pos.push(patch),
+                                Label::NotBall => neg.push(patch),
                                 Label::Unclear => {}
                             }
                         }

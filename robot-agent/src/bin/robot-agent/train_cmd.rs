@@ -70,7 +70,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let (positives, negatives) = match (&args.positives, &args.negatives) {
         (Some(p), Some(n)) => (folder_patches(p)?, folder_patches(n)?),
         _ if args.from_sim => {
-            crate::sim_patches::mine(args.matches, args.seconds, args.seed, &mut progress)?
+            let [model, _] = crate::run::load_models(None)?;
+            crate::sim_patches::mine(&model, args.matches, args.seconds, args.seed, &mut progress)?
         }
         _ => bail!("give --positives and --negatives, or --from-sim"),
     };
