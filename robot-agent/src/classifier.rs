@@ -14,11 +14,7 @@ use crate::hsv::HsvThresholds;
 use crate::image::RgbImage;
 use crate::kmeans::{ColourCheckConfig, colour_check};
 use crate::patch::{PatchConfig, extract};
-use crate::svm::{Model, SvmError};
-
-/// The default model, trained on the simulator's rendered candidates by
-/// `robot-agent train --from-sim`.
-pub const DEFAULT_MODEL_JSON: &str = include_str!("../data/ball-classifier.json");
+use crate::svm::Model;
 
 /// Colour check, then HOG + SVM.
 #[derive(Debug, Clone)]
@@ -38,11 +34,6 @@ impl BallClassifier {
             colour: ColourCheckConfig::default(),
             colours,
         }
-    }
-
-    /// The shipped model.
-    pub fn default_model() -> Result<Model, SvmError> {
-        Model::from_json(DEFAULT_MODEL_JSON)
     }
 
     /// The SVM's probability for a candidate, without the colour check.

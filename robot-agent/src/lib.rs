@@ -44,8 +44,10 @@
 //! - [`pipeline`]: detection, projection and world validation of one frame, at most one
 //!   ball per frame.
 //! - [`agent`]: a robot's perception state between frames: observations, status, counters.
+//! - [`builtin`]: the shipped calibration of the simulated camera and the ball classifier.
 
 pub mod agent;
+pub mod builtin;
 mod bundle;
 pub mod calibrate;
 #[cfg(test)]
