@@ -99,6 +99,8 @@ pub(crate) struct Problem<'a> {
     pub lens: Lens,
     pub object: &'a [[f64; 3]],
     pub views: Vec<&'a [[f64; 2]]>,
+    /// Indices of intrinsics held at their starting values.
+    pub fixed: &'a [usize],
 }
 
 impl Problem<'_> {
@@ -219,6 +221,15 @@ impl Problem<'_> {
                     }
                 }
             }
+        }
+        // Held parameters get a unit diagonal and no coupling, so their step is zero.
+        for &k in self.fixed.iter().filter(|&&k| k < ni) {
+            for j in 0..n {
+                a[(k, j)] = 0.0;
+                a[(j, k)] = 0.0;
+            }
+            a[(k, k)] = 1.0;
+            g[k] = 0.0;
         }
         (a, g)
     }

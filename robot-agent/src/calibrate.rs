@@ -161,7 +161,8 @@ struct Usable<'a> {
     homography: Matrix3<f64>,
 }
 
-/// Calibrates a camera of `width_px × height_px` from views of `board`.
+/// Calibrates a camera of `width_px × height_px` from views of `board`, fitting every
+/// distortion coefficient of `lens_model`.
 pub fn calibrate(
     views: &[View],
     board: &Board,
@@ -169,6 +170,28 @@ pub fn calibrate(
     height_px: u32,
     lens_model: LensModel,
 ) -> Result<Calibration, CalibrationError> {
+    calibrate_with(views, board, width_px, height_px, lens_model, 4)
+}
+
+/// [`calibrate`], fitting only the first `fisheye_terms` (1 to 4) Kannala–Brandt
+/// coefficients and holding the others at zero (like OpenCV's `FIX_K3`/`FIX_K4`).
+///
+/// Boards rarely reach a fisheye's image corners, where the higher terms are free to bend
+/// the model away from the lens; fewer terms extrapolate more faithfully there. The
+/// argument does not affect Brown–Conrady.
+pub fn calibrate_with(
+    views: &[View],
+    board: &Board,
+    width_px: u32,
+    height_px: u32,
+    lens_model: LensModel,
+    fisheye_terms: usize,
+) -> Result<Calibration, CalibrationError> {
+    if !(1..=4).contains(&fisheye_terms) {
+        return Err(CalibrationError::InvalidInput(format!(
+            "{fisheye_terms} fisheye terms (1 to 4)"
+        )));
+    }
     if !(board.square_m > 0.0 && board.square_m.is_finite()) || board.cols * board.rows < 4 {
         return Err(CalibrationError::InvalidInput(format!("board {board:?}")));
     }
@@ -226,12 +249,21 @@ pub fn calibrate(
         Lens::BrownConrady => pinhole_start(&usable, w, h)?,
         Lens::KannalaBrandt => fisheye_start(&usable, &plane, w, h)?,
     };
+    // Kannala–Brandt's k1..k4 are intrinsics 4..8.
+    let fixed: Vec<usize> = match lens {
+        Lens::KannalaBrandt => (4 + fisheye_terms..8).collect(),
+        Lens::BrownConrady => Vec::new(),
+    };
+    for &k in &fixed {
+        intrinsics[k] = 0.0;
+    }
     // Fit, drop outliers, fit again until none is left.
     loop {
         let problem = Problem {
             lens,
             object: &object,
             views: usable.iter().map(|u| u.corners_px).collect(),
+            fixed: &fixed,
         };
         (intrinsics, poses) = problem.refine(intrinsics, poses);
         let errors: Vec<f64> = usable

@@ -177,8 +177,10 @@ fn adaptation_follows_a_darker_ball() {
 
 #[test]
 fn bad_settings_are_refused() {
-    let mut cfg = DetectorConfig::default();
-    cfg.adapt_rate = 2.0;
+    let cfg = DetectorConfig {
+        adapt_rate: 2.0,
+        ..DetectorConfig::default()
+    };
     assert!(matches!(Detector::new(cfg), Err(DetectError::BadRate(_))));
     let mut cfg = DetectorConfig::default();
     cfg.hough.r_min_px = f64::NAN;

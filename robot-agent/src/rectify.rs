@@ -188,10 +188,10 @@ mod tests {
         let mut mask = Mask::zeros(640, 360).unwrap();
         for y in 0..360 {
             for x in 0..640 {
-                if let Some(r) = model.unproject([f64::from(x), f64::from(y)]) {
-                    if Vector3::from(r).angle(&centre) <= alpha {
-                        mask.set(x, y, true);
-                    }
+                if let Some(r) = model.unproject([f64::from(x), f64::from(y)])
+                    && Vector3::from(r).angle(&centre) <= alpha
+                {
+                    mask.set(x, y, true);
                 }
             }
         }

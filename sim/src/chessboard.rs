@@ -261,6 +261,7 @@ fn acceptable(lens: &LensModel, board: &Chessboard, pose: &BoardPose) -> bool {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
     use super::*;
 
     /// Bilinear grey level at a pixel position (pixel centres at +0.5).

@@ -124,6 +124,7 @@ impl Default for LensModel {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
     use super::*;
     use crate::vec3::{norm, sub, unit};
 

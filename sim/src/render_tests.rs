@@ -1,5 +1,7 @@
 //! Tests of the camera renderer against its own ground truth.
 
+#![allow(clippy::unwrap_used)]
+
 use crate::head::{camera_pose, default_head};
 use crate::lens::LensModel;
 use crate::render::{CameraRig, render, render_robot_cameras};

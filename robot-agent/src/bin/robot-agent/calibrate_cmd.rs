@@ -5,7 +5,7 @@
 //! printed board in front of a simulated MiRo) and calibrates from those.
 
 use anyhow::{Context, Result, bail};
-use robot_agent::calibrate::{Board, Calibration, LensModel, calibrate, detect_views};
+use robot_agent::calibrate::{Board, Calibration, LensModel, calibrate_with, detect_views};
 use robot_agent::gray::GrayImage;
 use robot_agent::image::RgbImage;
 use std::path::{Path, PathBuf};
@@ -36,6 +36,10 @@ pub struct CalibrateArgs {
     /// Fit the Kannala–Brandt fisheye model instead of Brown–Conrady.
     #[arg(long)]
     pub fisheye: bool,
+    /// Kannala–Brandt coefficients fitted (1 to 4; the rest are held at zero). Fewer
+    /// extrapolate better into image corners that no board reached.
+    #[arg(long, default_value_t = 4)]
+    pub fisheye_terms: usize,
     /// Where to write the calibration (TOML).
     #[arg(long)]
     pub out: PathBuf,
@@ -189,7 +193,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     } else {
         LensModel::BrownConrady
     };
-    let calibration = calibrate(&views, &board, w, h, lens)?;
+    let calibration = calibrate_with(&views, &board, w, h, lens, args.fisheye_terms)?;
     print_report(&calibration);
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)?;

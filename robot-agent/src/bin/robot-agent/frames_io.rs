@@ -366,9 +366,10 @@ pub fn read_mcap(path: &Path) -> Result<McapFrames> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     let mut out = McapFrames::default();
     let stream = mcap::MessageStream::new(&bytes).context("not an MCAP file")?;
-    for message in stream {
+    for (n, message) in stream.enumerate() {
         let message = match message {
             Ok(m) => m,
+            Err(e) if n == 0 => bail!("{} is not an MCAP file: {e}", path.display()),
             Err(e) => {
                 *out.skipped
                     .entry(format!("unreadable record: {e}"))

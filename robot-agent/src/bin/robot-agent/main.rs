@@ -25,7 +25,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Finds the ball in camera frames and publishes it over Zenoh.
-    Run(run::RunArgs),
+    Run(Box<run::RunArgs>),
     /// Fits a camera model to chessboard images.
     Calibrate(calibrate_cmd::CalibrateArgs),
     /// Trains the ball classifier.
@@ -45,7 +45,7 @@ fn main() -> Result<()> {
             let rt = tokio::runtime::Builder::new_multi_thread()
                 .enable_all()
                 .build()?;
-            rt.block_on(run::run(args))
+            rt.block_on(run::run(*args))
         }
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Train(args) => train_cmd::run(args),

@@ -136,14 +136,14 @@ fn load_config(path: Option<&Path>) -> Result<PipelineConfig> {
 }
 
 enum FrameSink {
-    Mcap(McapFrameWriter),
+    Mcap(Box<McapFrameWriter>),
     Folder(FolderWriter),
 }
 
 impl FrameSink {
     fn create(path: &Path) -> Result<Self> {
         if path.extension().is_some_and(|e| e == "mcap") {
-            Ok(FrameSink::Mcap(McapFrameWriter::create(path)?))
+            Ok(FrameSink::Mcap(Box::new(McapFrameWriter::create(path)?)))
         } else {
             Ok(FrameSink::Folder(FolderWriter::create(path)?))
         }
@@ -324,13 +324,17 @@ fn print_summary(agent_id: &str, s: &Summary) {
             .copied()
             .unwrap_or(f64::NAN)
     };
-    println!(
-        "{agent_id}: {} frames, {} observations; pipeline per frame median {:.2} ms, p99 {:.2} ms",
-        s.frames,
-        s.observations,
-        q(0.5),
-        q(0.99)
-    );
+    if ms.is_empty() {
+        println!("{agent_id}: 0 frames, 0 observations");
+    } else {
+        println!(
+            "{agent_id}: {} frames, {} observations; pipeline per frame median {:.2} ms, p99 {:.2} ms",
+            s.frames,
+            s.observations,
+            q(0.5),
+            q(0.99)
+        );
+    }
     if s.truth_frames > 0 {
         let recall = s.truth_hits as f64 / s.truth_visible.max(1) as f64;
         let precision = s.truth_hits as f64 / (s.truth_hits + s.false_sightings).max(1) as f64;
