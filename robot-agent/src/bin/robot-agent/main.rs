@@ -2,6 +2,7 @@
 //! publishes observations and status over Zenoh; `calibrate` fits a camera model to
 //! chessboard images; `train` fits the ball classifier.
 
+mod bench_cmd;
 mod calibrate_cmd;
 mod defaults;
 mod frames_io;
@@ -30,6 +31,8 @@ enum Command {
     Calibrate(calibrate_cmd::CalibrateArgs),
     /// Trains the ball classifier.
     Train(train_cmd::TrainArgs),
+    /// Times the perception pipeline per frame, by stage, on rendered frames.
+    Bench(bench_cmd::BenchArgs),
 }
 
 fn main() -> Result<()> {
@@ -49,5 +52,6 @@ fn main() -> Result<()> {
         }
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Train(args) => train_cmd::run(args),
+        Command::Bench(args) => bench_cmd::run(args),
     }
 }
