@@ -147,6 +147,13 @@ pub struct DemoArgs {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
     pub for_s: Option<f64>,
+    /// Robots report modelled observations instead of running the real perception on
+    /// rendered camera frames (much lighter: no rendering, no image processing).
+    #[arg(long)]
+    pub light: bool,
+    /// Camera frames per second of each agent (both cameras).
+    #[arg(long, default_value_t = 10.0)]
+    pub camera_hz: f64,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -359,24 +366,72 @@ async fn demo_cmd(a: DemoArgs) -> Result<()> {
     let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
         let _ = server_stop.wait_for(|s| *s).await;
     }));
-    let robots = SimRobotsConfig {
-        scenario: a.scenario.clone(),
-        seed: a.seed,
-        robots: Vec::new(),
-        duration_s: Some(a.match_s),
-        team_size: Some(a.robots),
-        start: SystemClock.now().offset_secs(1.0),
-        repeat: true,
-        status_rate_hz: 5.0,
-        prefix: cfg.prefix.clone(),
-        net: NetConfig::connecting(&endpoint),
+    let start = SystemClock.now().offset_secs(1.0);
+    let agent_bin = if a.light {
+        None
+    } else {
+        crate::demo_agents::agent_binary()
     };
-    let sims = tokio::spawn(simrobots::run(robots, stop_rx.clone()));
+    if !a.light && agent_bin.is_none() {
+        println!(
+            "No robot-agent binary next to this one: the robots report modelled observations \
+             (build it with `cargo build --release -p robot-agent` to run real perception)."
+        );
+    }
+    let (sims, mut agents) = match agent_bin {
+        Some(binary) => {
+            let run =
+                simrobots::simulate(&a.scenario, a.seed, start, Some(a.match_s), Some(a.robots))?;
+            let ids = simrobots::chosen_robots(&run, &[])?;
+            let agents_cfg = crate::demo_agents::AgentsConfig {
+                binary,
+                scenario: a.scenario.clone(),
+                seed: a.seed,
+                team_size: a.robots,
+                match_s: a.match_s,
+                start,
+                camera_hz: a.camera_hz,
+                endpoint: endpoint.clone(),
+                prefix: cfg.prefix.clone(),
+            };
+            let agents = crate::demo_agents::Agents::spawn(&agents_cfg, &ids)?;
+            println!(
+                "Demo running: {} robot-agent processes render their cameras of `{}` at {} Hz, find the ball and publish over Zenoh at {endpoint}.",
+                ids.len(),
+                a.scenario,
+                a.camera_hz
+            );
+            (None, Some(agents))
+        }
+        None => {
+            let robots = SimRobotsConfig {
+                scenario: a.scenario.clone(),
+                seed: a.seed,
+                robots: Vec::new(),
+                duration_s: Some(a.match_s),
+                team_size: Some(a.robots),
+                start,
+                repeat: true,
+                status_rate_hz: 5.0,
+                prefix: cfg.prefix.clone(),
+                net: NetConfig::connecting(&endpoint),
+            };
+            println!(
+                "Demo running: simulated MiRos playing `{}` publish modelled observations over Zenoh at {endpoint}.",
+                a.scenario
+            );
+            (
+                Some(tokio::spawn(simrobots::run(robots, stop_rx.clone()))),
+                None,
+            )
+        }
+    };
     tokio::spawn(report_progress(live.clone(), stop_rx.clone()));
-    println!(
-        "Demo running: simulated MiRos playing `{}` publish over Zenoh at {endpoint}.",
-        a.scenario
-    );
+    if let Some(agents) = agents.as_mut() {
+        for (id, status) in agents.exited() {
+            tracing::warn!("robot agent {id} exited: {status}");
+        }
+    }
     println!(
         "Open {url} (API: {url}api/state, live stream: {url}api/stream, metrics: {url}metrics). Ctrl-C stops."
     );
@@ -391,12 +446,25 @@ async fn demo_cmd(a: DemoArgs) -> Result<()> {
     }
     // Robots leave first, so the server sees them go.
     let _ = stop_tx.send(true);
-    let published = sims.await.context("simulated robots")??;
+    if let Some(mut agents) = agents {
+        for (id, status) in agents.exited() {
+            tracing::warn!("robot agent {id} had exited: {status}");
+        }
+        agents.stop();
+    }
+    let published = match sims {
+        Some(s) => s.await.context("simulated robots")??,
+        None => 0,
+    };
     let _ = server_stop_tx.send(true);
     server.await.context("server")??;
     finish_log(log)?;
     let fused = live.with_engine(|e| e.counters().observations_accepted);
-    println!("Demo stopped: {published} observations published, {fused} fused.");
+    if published > 0 {
+        println!("Demo stopped: {published} observations published, {fused} fused.");
+    } else {
+        println!("Demo stopped: {fused} observations fused.");
+    }
     Ok(())
 }
 

@@ -36,11 +36,19 @@ pub struct SimArgs {
     /// The ball has white patches.
     #[arg(long)]
     pub patterned_ball: bool,
+    /// Camera frames per second (both cameras).
+    #[arg(long, default_value_t = 15.0)]
+    pub camera_hz: f64,
+    /// After the match, play the next seed from where it ended, and so on (processes that
+    /// share the start and seed keep playing the same matches).
+    #[arg(long)]
+    pub repeat: bool,
 }
 
 #[derive(Debug)]
 pub struct SimSource {
     robot_id: String,
+    args: SimArgs,
     run: SimRun,
     rig: CameraRig,
     cfg: CameraWorldConfig,
@@ -52,25 +60,12 @@ pub struct SimSource {
 
 impl SimSource {
     pub fn new(robot_id: &str, args: &SimArgs, now: Stamp) -> Result<Self> {
-        let cfg = SimConfig {
-            start: args.start_stamp.map_or(now, Stamp),
-            duration_s: args.sim_duration,
-            team_size: args.team_size,
-            ..SimConfig::default()
+        let start = args.start_stamp.map_or(now, Stamp);
+        let run = simulate(robot_id, args, args.seed, start)?;
+        let mut cam_cfg = CameraWorldConfig {
+            frame_rate_hz: args.camera_hz.clamp(0.5, 60.0),
+            ..CameraWorldConfig::default()
         };
-        let run = sim::run_scenario(&args.scenario, args.seed, &cfg)
-            .with_context(|| format!("simulating {}", args.scenario))?;
-        anyhow::ensure!(
-            run.robot(robot_id).is_some(),
-            "scenario {} has no robot {robot_id:?} (it has {})",
-            args.scenario,
-            run.robots
-                .iter()
-                .map(|r| r.id.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-        let mut cam_cfg = CameraWorldConfig::default();
         if args.patterned_ball {
             cam_cfg.ball_look = patterned_ball();
         }
@@ -80,6 +75,7 @@ impl SimSource {
             .collect();
         Ok(SimSource {
             robot_id: robot_id.to_string(),
+            args: args.clone(),
             run,
             rig,
             cfg: cam_cfg,
@@ -89,12 +85,49 @@ impl SimSource {
             pending: VecDeque::new(),
         })
     }
+
+    /// Moves on to the next seed's match, starting where this one ended.
+    fn next_match(&mut self) -> Result<()> {
+        let start = self.run.stamp_of(self.run.duration_s);
+        self.seed += 1;
+        self.run = simulate(&self.robot_id, &self.args, self.seed, start)?;
+        let world = CameraWorld::new(&self.run, &self.rig, self.cfg, self.seed);
+        // The first frame of the new match would repeat the last one of the old.
+        self.times = world.frame_times().skip(1).collect();
+        tracing::info!("{}: next match, seed {}", self.robot_id, self.seed);
+        Ok(())
+    }
+}
+
+fn simulate(robot_id: &str, args: &SimArgs, seed: u64, start: Stamp) -> Result<SimRun> {
+    let cfg = SimConfig {
+        start,
+        duration_s: args.sim_duration,
+        team_size: args.team_size,
+        ..SimConfig::default()
+    };
+    let run = sim::run_scenario(&args.scenario, seed, &cfg)
+        .with_context(|| format!("simulating {}", args.scenario))?;
+    anyhow::ensure!(
+        run.robot(robot_id).is_some(),
+        "scenario {} has no robot {robot_id:?} (it has {})",
+        args.scenario,
+        run.robots
+            .iter()
+            .map(|r| r.id.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(run)
 }
 
 impl FrameSource for SimSource {
     fn next_frame(&mut self) -> Result<Option<Captured>> {
         if let Some(c) = self.pending.pop_front() {
             return Ok(Some(c));
+        }
+        if self.times.is_empty() && self.args.repeat {
+            self.next_match()?;
         }
         let Some(t_s) = self.times.pop_front() else {
             return Ok(None);
