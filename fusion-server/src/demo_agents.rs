@@ -48,6 +48,8 @@ impl Agents {
                 .args(["--start-stamp", &cfg.start.0.to_string()])
                 .args(["--camera-hz", &cfg.camera_hz.to_string()])
                 .args(["--connect", &cfg.endpoint, "--prefix", &cfg.prefix])
+                // Agents stop by themselves should the demo die without stopping them.
+                .args(["--parent-pid", &std::process::id().to_string()])
                 .env("RUST_LOG", "warn,zenoh=error")
                 .stdin(Stdio::null())
                 .stdout(Stdio::null())

@@ -351,6 +351,21 @@ mod tests {
         assert_eq!((a.frames(), a.observations()), (3, 2));
     }
 
+    /// The settings shown in the agent's guide are the defaults, and parse.
+    #[test]
+    fn the_guide_shows_the_default_settings() {
+        let guide = include_str!("../../docs/robot-agent.md");
+        let block = guide
+            .split("```toml\n")
+            .nth(1)
+            .and_then(|b| b.split("```").next())
+            .unwrap();
+        let parsed: PipelineConfig = toml::from_str(block).unwrap();
+        assert_eq!(parsed, PipelineConfig::default());
+        assert!(toml::from_str::<PipelineConfig>("[detector]\nadapt_rate = 0.0").is_ok());
+        assert!(toml::from_str::<PipelineConfig>("[detector]\ncolour = 1").is_err());
+    }
+
     #[test]
     fn status_carries_footprints_for_both_cameras() {
         let a = agent();

@@ -70,7 +70,7 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     let rig = CameraRig::new(LensModel::miro());
-    let [left, right] = crate::run::load_models(None)?;
+    let [left, right] = crate::run::load_models(None, None)?;
     let config = PipelineConfig::default();
     let mut frames = Vec::new();
     let mut render_s = 0.0;

@@ -434,3 +434,34 @@ pub fn state_at(states: &[(Stamp, RobotState)], stamp: Stamp) -> Option<RobotSta
     let i = states.partition_point(|(s, _)| *s <= stamp);
     states.get(i.saturating_sub(1)).map(|(_, s)| *s)
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    /// The index line shown in the agent's guide parses.
+    #[test]
+    fn the_guide_s_index_line_parses() {
+        let guide = include_str!("../../../../docs/robot-agent.md");
+        let line = guide
+            .split("```json\n")
+            .nth(1)
+            .and_then(|b| b.lines().next())
+            .unwrap();
+        let rec: FrameRecord = serde_json::from_str(line).unwrap();
+        assert_eq!(rec.camera, Camera::Left);
+        assert!(rec.state.pose_covariance[0] > 0.0);
+    }
+
+    #[test]
+    fn raw_images_convert_and_short_buffers_are_refused() {
+        let rgb = raw_to_rgb(2, 1, "bgr8", 6, &[1, 2, 3, 4, 5, 6]).unwrap();
+        assert_eq!(rgb.data(), &[3, 2, 1, 6, 5, 4]);
+        let mono = raw_to_rgb(2, 1, "mono8", 2, &[7, 9]).unwrap();
+        assert_eq!(mono.data(), &[7, 7, 7, 9, 9, 9]);
+        assert!(raw_to_rgb(2, 2, "rgb8", 6, &[0; 8]).is_err());
+        assert!(raw_to_rgb(2, 1, "yuv422", 4, &[0; 4]).is_err());
+    }
+}

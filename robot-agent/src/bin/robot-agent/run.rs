@@ -28,10 +28,13 @@ pub struct RunArgs {
     /// index) or `mcap:FILE` (a recording of camera images and robot states).
     #[arg(long, default_value = "sim")]
     pub source: SourceSpec,
-    /// Camera calibration: a file from `robot-agent calibrate` (used for both cameras) or a
-    /// file with `[left]` and `[right]` calibrations. Default: the simulated MiRo's.
+    /// Camera calibration from `robot-agent calibrate`: the left camera's, and the right
+    /// one's too unless `--calibration-right` is given. Default: the simulated MiRo's.
     #[arg(long)]
     pub calibration: Option<PathBuf>,
+    /// The right camera's calibration.
+    #[arg(long, requires = "calibration")]
+    pub calibration_right: Option<PathBuf>,
     /// Pipeline settings (TOML: `[detector]`, `[noise]`, `[validation]`).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -65,6 +68,9 @@ pub struct RunArgs {
     /// Status messages per second.
     #[arg(long, default_value_t = 2.0)]
     pub status_hz: f64,
+    /// Stop when this process is no longer the parent (a launcher that died).
+    #[arg(long, hide = true)]
+    pub parent_pid: Option<u32>,
     #[command(flatten)]
     pub sim: crate::sim_source::SimArgs,
 }
@@ -97,31 +103,31 @@ fn wall_now() -> Stamp {
     Stamp(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
 }
 
-/// The left and right camera models from a calibration file.
-pub fn load_models(path: Option<&Path>) -> Result<[CameraModel; 2]> {
-    let text = match path {
-        Some(p) => {
-            std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?
-        }
-        None => crate::defaults::SIM_CALIBRATION.to_string(),
-    };
-    let name = path.map_or("the built-in calibration".to_string(), |p| {
-        p.display().to_string()
-    });
-    let doc: toml::Table = toml::from_str(&text).with_context(|| format!("{name} is not TOML"))?;
-    let one = |v: &toml::Value| -> Result<CameraModel> {
-        let c = Calibration::from_toml_str(&toml::to_string(v)?)?;
+/// The left and right camera models: `left` from a file of `robot-agent calibrate` (or the
+/// built-in calibration of the simulated camera), `right` from its own file or else the
+/// same as the left.
+pub fn load_models(left: Option<&Path>, right: Option<&Path>) -> Result<[CameraModel; 2]> {
+    let read = |path: Option<&Path>| -> Result<CameraModel> {
+        let (text, name) = match path {
+            Some(p) => (
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
+                p.display().to_string(),
+            ),
+            None => (
+                crate::defaults::SIM_CALIBRATION.to_string(),
+                "the built-in calibration".to_string(),
+            ),
+        };
+        let c = Calibration::from_toml_str(&text)
+            .with_context(|| format!("{name} is not a calibration from `robot-agent calibrate`"))?;
         Ok(c.model)
     };
-    match (doc.get("left"), doc.get("right")) {
-        (Some(l), Some(r)) => Ok([one(l)?, one(r)?]),
-        _ => {
-            let model = Calibration::from_toml_str(&text)
-                .with_context(|| format!("{name}: not a calibration"))?
-                .model;
-            Ok([model, model])
-        }
-    }
+    let l = read(left)?;
+    let r = match right {
+        Some(_) => read(right)?,
+        None => l,
+    };
+    Ok([l, r])
 }
 
 fn load_config(path: Option<&Path>) -> Result<PipelineConfig> {
@@ -188,6 +194,17 @@ fn perceive(
     let mut last_progress = Instant::now();
     let status_dt = 1.0 / args.status_hz.max(0.1);
     while !stop.load(Ordering::Relaxed) {
+        #[cfg(unix)]
+        if args
+            .parent_pid
+            .is_some_and(|p| std::os::unix::process::parent_id() != p)
+        {
+            tracing::warn!(
+                "{}: the launching process is gone; stopping",
+                agent.robot_id()
+            );
+            break;
+        }
         let Some(Captured { mut frame, truth }) = source.next_frame()? else {
             break;
         };
@@ -358,7 +375,10 @@ pub async fn run(args: RunArgs) -> Result<()> {
         "robot id {:?} is not valid",
         args.robot_id
     );
-    let models = load_models(args.calibration.as_deref())?;
+    let models = load_models(
+        args.calibration.as_deref(),
+        args.calibration_right.as_deref(),
+    )?;
     let config = load_config(args.config.as_deref())?;
     let classifier = crate::defaults::classifier(&config.detector)?;
     let agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;

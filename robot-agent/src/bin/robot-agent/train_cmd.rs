@@ -70,7 +70,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let (positives, negatives) = match (&args.positives, &args.negatives) {
         (Some(p), Some(n)) => (folder_patches(p)?, folder_patches(n)?),
         _ if args.from_sim => {
-            let [model, _] = crate::run::load_models(None)?;
+            let [model, _] = crate::run::load_models(None, None)?;
             crate::sim_patches::mine(&model, args.matches, args.seconds, args.seed, &mut progress)?
         }
         _ => bail!("give --positives and --negatives, or --from-sim"),
