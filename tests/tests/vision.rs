@@ -16,7 +16,11 @@ fn one_rendered_seed_scenario_is_found_and_fused() {
     let r = evaluate_vision_run("seed-1-across", 1, &sim_cfg, &VisionConfig::default())
         .expect("vision run");
     let d = Detection::of(&r.frames);
-    assert!(d.visible > 20, "the ball was visible in only {} frames", d.visible);
+    assert!(
+        d.visible > 20,
+        "the ball was visible in only {} frames",
+        d.visible
+    );
     let recall = d.recall.expect("recall");
     let precision = d.precision.expect("precision");
     assert!(recall >= 0.85, "recall {recall:.3} < 0.85 ({d:?})");
