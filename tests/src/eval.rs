@@ -9,7 +9,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 /// One scenario and seed, scored for every method.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct RunResult {
     pub scenario: String,
     pub seed: u64,

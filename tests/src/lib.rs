@@ -8,3 +8,5 @@ pub mod methods;
 pub mod plot;
 pub mod plots;
 pub mod report;
+pub mod vision;
+pub mod vision_report;

@@ -188,12 +188,20 @@ pub const SECTION_END: &str = "<!-- evaluate:end -->";
 /// Replaces the text between the section markers of a markdown file (appending the section
 /// when the markers are missing), leaving the hand-written discussion around it alone.
 pub fn rewrite_section(path: &std::path::Path, section: &str) -> anyhow::Result<()> {
+    rewrite_section_between(path, SECTION_BEGIN, SECTION_END, section)
+}
+
+/// [`rewrite_section`] between other markers, so that one file can hold several sections.
+pub fn rewrite_section_between(
+    path: &std::path::Path,
+    begin: &str,
+    end: &str,
+    section: &str,
+) -> anyhow::Result<()> {
     let old = std::fs::read_to_string(path).unwrap_or_default();
-    let block = format!("{SECTION_BEGIN}\n{section}{SECTION_END}");
-    let new = match (old.find(SECTION_BEGIN), old.find(SECTION_END)) {
-        (Some(a), Some(b)) if b > a => {
-            format!("{}{block}{}", &old[..a], &old[b + SECTION_END.len()..])
-        }
+    let block = format!("{begin}\n{section}{end}");
+    let new = match (old.find(begin), old.find(end)) {
+        (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + end.len()..]),
         _ => format!("{old}\n{block}\n"),
     };
     std::fs::write(path, new)?;

@@ -1,18 +1,26 @@
 //! `evaluate`: every scenario over many seeds, each method on the same observations,
 //! scored against the simulator's ground truth. Writes JSON, prints a markdown table and
-//! the targets, and draws PNG plots.
+//! the targets, and draws PNG plots. With `--vision`, the seed's scenarios are rendered
+//! through the robots' cameras and the real agent pipeline supplies the observations.
 
 use anyhow::Context;
 use clap::Parser;
 use std::path::PathBuf;
+use system_tests::vision::{VisionConfig, evaluate_vision, shipped_lens_error};
+use system_tests::vision_report::{self, CalibrationCheck};
 use system_tests::{eval, plots, report};
 
 #[derive(Debug, Parser)]
 #[command(about = "Evaluate the fusion core against the seed's method and an oracle")]
 struct Args {
-    /// Seeds per scenario (0..N).
-    #[arg(long, default_value_t = 20)]
-    seeds: u64,
+    /// Seeds per scenario (0..N); default 20, or 5 with `--vision`.
+    #[arg(long)]
+    seeds: Option<u64>,
+    /// Render the cameras and run the robot agent's pipeline for the observations (default
+    /// scenarios: the seed's six). Its generated section is marked
+    /// `<!-- evaluate-vision:begin -->` / `<!-- evaluate-vision:end -->`.
+    #[arg(long)]
+    vision: bool,
     /// Write the full report as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -41,10 +49,11 @@ fn main() {
     }
 }
 
-fn run(args: Args) -> anyhow::Result<()> {
+/// The scenarios named on the command line, or `default`.
+fn scenario_list(args: &Args, default: Vec<&'static str>) -> anyhow::Result<Vec<&'static str>> {
     let all = sim::scenario_names();
-    let names: Vec<&str> = if args.scenarios.is_empty() {
-        all.clone()
+    Ok(if args.scenarios.is_empty() {
+        default
     } else {
         let mut v = Vec::new();
         for s in &args.scenarios {
@@ -55,11 +64,19 @@ fn run(args: Args) -> anyhow::Result<()> {
             v.push(n);
         }
         v
-    };
+    })
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    if args.vision {
+        return run_vision(&args);
+    }
+    let names = scenario_list(&args, sim::scenario_names())?;
+    let seeds = args.seeds.unwrap_or(20);
     let cfg = sim::SimConfig::default();
     let started = std::time::Instant::now();
-    let results = eval::evaluate(&names, args.seeds, &cfg, args.jobs)?;
-    let rep = eval::report(&names, args.seeds, &results);
+    let results = eval::evaluate(&names, seeds, &cfg, args.jobs)?;
+    let rep = eval::report(&names, seeds, &results);
     let table = report::markdown_table(&rep.scenarios);
     println!("{table}");
     let met = rep.targets.iter().filter(|t| t.met).count();
@@ -107,21 +124,11 @@ fn doc_section(
     table: &str,
     secs: f64,
 ) -> String {
-    let mut cmd = format!(
-        "cargo run --release -p system-tests --bin evaluate -- --seeds {}",
-        args.seeds
-    );
-    if let Some(doc) = &args.doc {
-        cmd.push_str(&format!(" --doc {}", doc.display()));
-    }
-    cmd.push_str(&format!(" --plots {}", args.plots.display()));
-    if !args.scenarios.is_empty() {
-        cmd.push_str(&format!(" --scenarios {}", names.join(",")));
-    }
+    let seeds = args.seeds.unwrap_or(20);
     let mut s = format!(
-        "Produced by `{cmd}` ({} scenarios × {} seeds, {secs:.0} s on {} worker threads).\n\n{table}\n",
+        "Produced by `{}` ({} scenarios × {seeds} seeds, {secs:.0} s on {} worker threads).\n\n{table}\n",
+        command(args, names, seeds),
         names.len(),
-        args.seeds,
         args.jobs
     );
     let met = rep.targets.iter().filter(|t| t.met).count();
@@ -139,4 +146,71 @@ fn doc_section(
         ));
     }
     s
+}
+
+/// The command line that reproduces a run, for the generated sections.
+fn command(args: &Args, names: &[&str], seeds: u64) -> String {
+    let mut cmd = String::from("cargo run --release -p system-tests --bin evaluate --");
+    if args.vision {
+        cmd.push_str(" --vision");
+    }
+    cmd.push_str(&format!(" --seeds {seeds}"));
+    if let Some(doc) = &args.doc {
+        cmd.push_str(&format!(" --doc {}", doc.display()));
+    }
+    cmd.push_str(&format!(" --plots {}", args.plots.display()));
+    if !args.scenarios.is_empty() {
+        cmd.push_str(&format!(" --scenarios {}", names.join(",")));
+    }
+    cmd
+}
+
+/// `--vision`: rendered cameras → the agent → the fusion core, scored like the rest.
+fn run_vision(args: &Args) -> anyhow::Result<()> {
+    let names = scenario_list(args, sim::SEED_SCENARIOS.to_vec())?;
+    let seeds = args.seeds.unwrap_or(5);
+    let vcfg = VisionConfig::default();
+    let started = std::time::Instant::now();
+    let results = evaluate_vision(&names, seeds, &sim::SimConfig::default(), &vcfg, args.jobs)?;
+    let grid_step_px = 4.0;
+    let (shipped_rms_px, lens) = shipped_lens_error(grid_step_px)?;
+    let calibration = CalibrationCheck {
+        shipped_rms_px,
+        grid_step_px,
+        lens,
+    };
+    let rep = vision_report::report(&names, seeds, vcfg.latency_s, &results, calibration);
+    let text = vision_report::markdown(&rep);
+    println!("{text}");
+    let secs = started.elapsed().as_secs_f64();
+    if let Some(path) = &args.json {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        std::fs::write(path, serde_json::to_string_pretty(&rep)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.markdown {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.doc {
+        let section = format!(
+            "Produced by `{}` ({} scenarios × {seeds} seeds, {secs:.0} s on {} worker threads; \
+             observations reach the fusion core {:.0} ms after capture).\n\n{text}",
+            command(args, &names, seeds),
+            names.len(),
+            args.jobs,
+            vcfg.latency_s * 1e3,
+        );
+        report::rewrite_section_between(
+            path,
+            vision_report::SECTION_BEGIN,
+            vision_report::SECTION_END,
+            &section,
+        )?;
+        eprintln!("updated {}", path.display());
+    }
+    eprintln!("wrote {}", vision_report::write_plot(&args.plots, &rep)?);
+    Ok(())
 }

@@ -1,0 +1,356 @@
+//! The vision evaluation: a scenario rendered through each observing robot's two cameras,
+//! every frame through the real agent pipeline, and the agent's observations (instead of
+//! the simulator's synthetic ones) through the fusion core, scored by the same code as
+//! [`crate::eval`].
+//!
+//! The agent gets nothing from the simulator but the images and its own sensor readings (a
+//! pose with a wandering error, head joints with encoder error); it knows the lens only
+//! through the shipped calibration. It does not receive the fused ball state here, so its
+//! world validation runs without the team's estimate.
+
+use crate::eval::{RunResult, evaluate_run};
+use proto::{Camera, Observation};
+use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
+use robot_agent::camera::CameraModel;
+use robot_agent::detect::NoClock;
+use robot_agent::image::RgbImage;
+use sim::camera_world::{CameraWorld, CameraWorldConfig};
+use sim::lens::LensModel;
+use sim::render::CameraRig;
+use sim::render_scene::BallTruth;
+use sim::{Delivery, ObsKind, SimConfig, SimRun};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// The simulator puts pixel centres at +0.5 (its origin is the top-left pixel's corner);
+/// the agent's camera model puts the top-left pixel's centre at (0, 0), OpenCV's way. A
+/// pixel position of the agent plus this offset is the simulator's.
+pub const SIM_PIXEL_OFFSET: f64 = 0.5;
+
+/// How the rendered frames become deliveries.
+#[derive(Debug, Clone, Copy)]
+pub struct VisionConfig {
+    pub camera: CameraWorldConfig,
+    /// Fixed delay from capture to the fusion core: the pipeline plus the network.
+    pub latency_s: f64,
+}
+
+impl Default for VisionConfig {
+    fn default() -> Self {
+        VisionConfig {
+            camera: CameraWorldConfig::default(),
+            latency_s: 0.040,
+        }
+    }
+}
+
+/// One camera frame judged against the renderer's truth, with the counting rules of
+/// `robot-agent run`: a ball is visible when it is in the frame, at least half of it shows,
+/// its image radius is at least 4 px and its centre lies on the image; an observation is a
+/// hit when its pixel lies within max(radius, 4) px of the true centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameStat {
+    pub visible: bool,
+    pub hit: bool,
+    /// The agent published an observation for this frame.
+    pub observed: bool,
+    /// Confidence of the observation, if any.
+    pub confidence: Option<f64>,
+    /// The true ball's image radius (0 when out of view).
+    pub radius_px: f64,
+    /// Wall time of `Agent::on_frame`, milliseconds.
+    pub pipeline_ms: f64,
+}
+
+impl FrameStat {
+    /// A visible ball the agent found.
+    pub fn true_hit(&self) -> bool {
+        self.visible && self.hit
+    }
+
+    /// An observation that is not the ball.
+    pub fn false_sighting(&self) -> bool {
+        self.observed && !self.hit
+    }
+}
+
+/// The fusion evaluation of one scenario and seed on the agent's observations, and the
+/// per-frame detection record.
+#[derive(Debug)]
+pub struct VisionResult {
+    pub result: RunResult,
+    pub frames: Vec<FrameStat>,
+    pub observations: usize,
+}
+
+fn judge(
+    truth: Option<&BallTruth>,
+    obs: Option<&Observation>,
+    width: u32,
+    height: u32,
+) -> (bool, bool, f64) {
+    let Some(t) = truth else {
+        return (false, false, 0.0);
+    };
+    let on_image = |c: [f64; 2]| {
+        (0.0..f64::from(width)).contains(&c[0]) && (0.0..f64::from(height)).contains(&c[1])
+    };
+    let visible = t.in_frame
+        && t.visible_fraction >= 0.5
+        && t.radius_px >= 4.0
+        && t.center_px.is_some_and(on_image);
+    let hit = obs.and_then(|o| o.pixel).is_some_and(|p| {
+        t.center_px.is_some_and(|c| {
+            let (u, v) = (p.u_px + SIM_PIXEL_OFFSET, p.v_px + SIM_PIXEL_OFFSET);
+            (u - c[0]).hypot(v - c[1]) <= t.radius_px.max(4.0)
+        })
+    });
+    let radius = if t.in_frame { t.radius_px } else { 0.0 };
+    (visible, hit, radius)
+}
+
+/// The shipped agent for robot `id`: the simulator calibration for both cameras, the
+/// default pipeline settings and the shipped classifier.
+pub fn shipped_agent(id: &str, run: &SimRun) -> anyhow::Result<Agent> {
+    let config = PipelineConfig::default();
+    let model = robot_agent::builtin::sim_calibration()?.model;
+    let classifier = robot_agent::builtin::classifier(&config.detector)?;
+    Ok(Agent::new(
+        id,
+        run.pitch.clone(),
+        config,
+        [model, model],
+        Box::new(classifier),
+    )?)
+}
+
+/// Renders every observer's cameras over the run and feeds the frames to its agent. Returns
+/// the agent's observations as deliveries (sorted by arrival, like the simulator's) and the
+/// per-frame record.
+pub fn perceive(
+    run: &SimRun,
+    cfg: &VisionConfig,
+) -> anyhow::Result<(Vec<Delivery>, Vec<FrameStat>)> {
+    let rig = CameraRig::new(LensModel::miro());
+    let world = CameraWorld::new(run, &rig, cfg.camera, run.seed);
+    let mut deliveries = Vec::new();
+    let mut frames = Vec::new();
+    for id in run.observer_ids() {
+        let mut agent = shipped_agent(&id, run)?;
+        for (k, t_s) in world.frame_times().enumerate() {
+            let capture = world.capture(&id, t_s, k as u64);
+            let stamp = run.stamp_of(t_s);
+            let r = capture.reading;
+            for ((frame, truth), camera) in capture
+                .frames
+                .into_iter()
+                .zip([Camera::Left, Camera::Right])
+            {
+                let (w, h) = (frame.width, frame.height);
+                let image = RgbImage::new(w, h, frame.rgb)?;
+                let input = FrameInput {
+                    stamp,
+                    camera,
+                    image: &image,
+                    pose: r.pose,
+                    pose_covariance: r.pose_covariance,
+                    head: r.head,
+                };
+                let started = Instant::now();
+                let outcome = agent.on_frame(&input, &mut NoClock)?;
+                let pipeline_ms = started.elapsed().as_secs_f64() * 1e3;
+                let (visible, hit, radius_px) =
+                    judge(truth.as_ref(), outcome.observation.as_ref(), w, h);
+                frames.push(FrameStat {
+                    visible,
+                    hit,
+                    observed: outcome.observation.is_some(),
+                    confidence: outcome.observation.as_ref().map(|o| o.confidence),
+                    radius_px,
+                    pipeline_ms,
+                });
+                if let Some(obs) = outcome.observation {
+                    deliveries.push(Delivery {
+                        arrival: stamp.offset_secs(cfg.latency_s),
+                        obs,
+                        kind: if hit {
+                            ObsKind::Ball
+                        } else {
+                            ObsKind::FalsePositive
+                        },
+                    });
+                }
+            }
+        }
+    }
+    deliveries.sort_by(|a, b| {
+        (a.arrival, a.obs.stamp, &a.obs.robot_id).cmp(&(b.arrival, b.obs.stamp, &b.obs.robot_id))
+    });
+    Ok((deliveries, frames))
+}
+
+/// Runs one scenario and seed through the cameras and the agent, then scores every method
+/// of [`evaluate_run`] on the agent's observations.
+pub fn evaluate_vision_run(
+    scenario: &str,
+    seed: u64,
+    sim_cfg: &SimConfig,
+    cfg: &VisionConfig,
+) -> anyhow::Result<VisionResult> {
+    let mut run = sim::run_scenario(scenario, seed, sim_cfg)?;
+    let (deliveries, frames) = perceive(&run, cfg)?;
+    let observations = deliveries.len();
+    run.deliveries = deliveries;
+    Ok(VisionResult {
+        result: evaluate_run(&run),
+        frames,
+        observations,
+    })
+}
+
+/// Runs `scenarios` × `seeds` on `jobs` threads, reporting progress on stderr.
+pub fn evaluate_vision(
+    scenarios: &[&str],
+    seeds: u64,
+    sim_cfg: &SimConfig,
+    cfg: &VisionConfig,
+    jobs: usize,
+) -> anyhow::Result<Vec<VisionResult>> {
+    let work: Vec<(&str, u64)> = scenarios
+        .iter()
+        .flat_map(|s| (0..seeds).map(move |k| (*s, k)))
+        .collect();
+    let total = work.len();
+    let queue = Mutex::new(work.into_iter());
+    let results = Mutex::new(Vec::with_capacity(total));
+    let errors = Mutex::new(Vec::new());
+    let started = Instant::now();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.max(1) {
+            scope.spawn(|| {
+                loop {
+                    let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
+                    let Some((name, seed)) = next else { break };
+                    match evaluate_vision_run(name, seed, sim_cfg, cfg) {
+                        Ok(r) => {
+                            if let Ok(mut res) = results.lock() {
+                                res.push(r);
+                                eprint!(
+                                    "\r[{:>3}/{total}] {:<24} seed {:>3}  {:>6.1} s",
+                                    res.len(),
+                                    name,
+                                    seed,
+                                    started.elapsed().as_secs_f64()
+                                );
+                            }
+                        }
+                        Err(e) => {
+                            if let Ok(mut errs) = errors.lock() {
+                                errs.push(format!("{name} seed {seed}: {e:#}"));
+                            }
+                        }
+                    }
+                }
+            });
+        }
+    });
+    eprintln!();
+    let errors = errors.into_inner().unwrap_or_default();
+    if let Some(e) = errors.first() {
+        anyhow::bail!("vision run failed: {e}");
+    }
+    let mut results = results.into_inner().unwrap_or_default();
+    results.sort_by(|a, b| {
+        (a.result.scenario.as_str(), a.result.seed)
+            .cmp(&(b.result.scenario.as_str(), b.result.seed))
+    });
+    Ok(results)
+}
+
+/// How far the fitted camera model is from the simulator's true lens.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LensError {
+    pub max_px: f64,
+    pub rms_px: f64,
+    /// Grid pixels compared.
+    pub pixels: usize,
+    /// Grid pixels the model could not project (counted, not in the error).
+    pub failed: usize,
+}
+
+/// For a grid of pixel positions every `step_px` over the whole image (agent convention),
+/// the true lens's ray through the same point, projected with `model`: the distance from
+/// where it started. `offset_px` is added to convert the agent's pixel positions to the
+/// simulator's ([`SIM_PIXEL_OFFSET`] is the right one; other values show why).
+pub fn lens_error(
+    model: &CameraModel,
+    lens: &LensModel,
+    step_px: f64,
+    offset_px: f64,
+) -> LensError {
+    let (w, h) = (f64::from(lens.width), f64::from(lens.height));
+    let mut sq = 0.0;
+    let mut max_px: f64 = 0.0;
+    let (mut pixels, mut failed) = (0, 0);
+    let step = step_px.max(0.25);
+    let mut v = 0.0;
+    while v <= h - 1.0 {
+        let mut u = 0.0;
+        while u <= w - 1.0 {
+            let projected = lens
+                .ray([u + offset_px, v + offset_px])
+                .and_then(|ray| model.project(ray));
+            match projected {
+                Some(p) => {
+                    let e = (p[0] - u).hypot(p[1] - v);
+                    sq += e * e;
+                    max_px = max_px.max(e);
+                    pixels += 1;
+                }
+                None => failed += 1,
+            }
+            u += step;
+        }
+        v += step;
+    }
+    LensError {
+        max_px,
+        rms_px: if pixels == 0 {
+            f64::NAN
+        } else {
+            (sq / pixels as f64).sqrt()
+        },
+        pixels,
+        failed,
+    }
+}
+
+/// The shipped calibration against the simulator's lens, and the calibration's own RMS
+/// reprojection error on its boards.
+pub fn shipped_lens_error(step_px: f64) -> anyhow::Result<(f64, LensError)> {
+    let cal = robot_agent::builtin::sim_calibration()?;
+    Ok((
+        cal.rms_px,
+        lens_error(&cal.model, &LensModel::miro(), step_px, SIM_PIXEL_OFFSET),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    #[test]
+    fn the_half_pixel_offset_is_the_convention_that_fits() {
+        let model = robot_agent::builtin::sim_calibration().unwrap().model;
+        let lens = LensModel::miro();
+        let right = lens_error(&model, &lens, 20.0, SIM_PIXEL_OFFSET);
+        let none = lens_error(&model, &lens, 20.0, 0.0);
+        let wrong = lens_error(&model, &lens, 20.0, -0.5);
+        assert_eq!(right.failed, 0);
+        assert!(right.rms_px < none.rms_px, "{right:?} vs {none:?}");
+        assert!(right.rms_px < wrong.rms_px, "{right:?} vs {wrong:?}");
+        assert!(none.rms_px > 0.3, "the offset matters: {none:?}");
+    }
+}

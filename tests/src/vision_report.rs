@@ -1,0 +1,412 @@
+//! The vision evaluation's report: the fusion rows (scored by [`crate::eval`]'s code on the
+//! agent's observations), detection precision and recall, confidence calibration, pipeline
+//! time and the lens check, as JSON, markdown and one plot.
+
+use crate::eval;
+use crate::plot::{Chart, Marker, PALETTE, Series, Style, write_png};
+use crate::report::{Report, TargetCheck};
+use crate::vision::{FrameStat, LensError, VisionResult};
+use serde::Serialize;
+use sim::score::quantile;
+use std::path::Path;
+
+pub const SECTION_BEGIN: &str = "<!-- evaluate-vision:begin -->";
+pub const SECTION_END: &str = "<!-- evaluate-vision:end -->";
+
+/// Detection counted over frames, the way `robot-agent run` counts against the truth.
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct Detection {
+    pub frames: usize,
+    /// Frames in which the ball is visible (see [`FrameStat`]).
+    pub visible: usize,
+    /// Visible balls the agent found.
+    pub hits: usize,
+    pub observations: usize,
+    /// Observations that are not the ball.
+    pub false_sightings: usize,
+    pub recall: Option<f64>,
+    pub precision: Option<f64>,
+}
+
+impl Detection {
+    pub fn of<'a>(frames: impl IntoIterator<Item = &'a FrameStat>) -> Self {
+        let mut d = Detection::default();
+        for f in frames {
+            d.frames += 1;
+            d.visible += usize::from(f.visible);
+            d.hits += usize::from(f.true_hit());
+            d.observations += usize::from(f.observed);
+            d.false_sightings += usize::from(f.false_sighting());
+        }
+        d.recall = (d.visible > 0).then(|| d.hits as f64 / d.visible as f64);
+        let judged = d.hits + d.false_sightings;
+        d.precision = (judged > 0).then(|| d.hits as f64 / judged as f64);
+        d
+    }
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ScenarioDetection {
+    pub scenario: String,
+    #[serde(flatten)]
+    pub detection: Detection,
+}
+
+/// Observations whose confidence fell in [lo, hi): how sure the agent said it was against
+/// how often it was right.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ConfidenceBin {
+    pub lo: f64,
+    pub hi: f64,
+    pub observations: usize,
+    pub mean_confidence: Option<f64>,
+    pub ball_fraction: Option<f64>,
+}
+
+/// Recall among visible balls of an image radius in [lo, hi) pixels.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct RadiusBin {
+    pub lo_px: f64,
+    pub hi_px: f64,
+    pub visible: usize,
+    pub recall: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Timing {
+    pub frames: usize,
+    pub median_ms: Option<f64>,
+    pub p99_ms: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CalibrationCheck {
+    /// The shipped calibration's RMS reprojection error on its chessboard views.
+    pub shipped_rms_px: f64,
+    /// Spacing of the pixel grid over the whole image.
+    pub grid_step_px: f64,
+    /// The fitted model against the simulator's true lens over that grid.
+    pub lens: LensError,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct VisionReport {
+    pub seeds: usize,
+    pub latency_s: f64,
+    /// The fusion evaluation on the agent's observations (rows and the fusion targets).
+    pub fusion: Report,
+    pub detection: Vec<ScenarioDetection>,
+    pub detection_overall: Detection,
+    pub confidence: Vec<ConfidenceBin>,
+    pub recall_by_radius: Vec<RadiusBin>,
+    pub timing: Timing,
+    pub calibration: CalibrationCheck,
+    pub targets: Vec<TargetCheck>,
+}
+
+const CONFIDENCE_EDGES: [f64; 6] = [0.0, 0.5, 0.8, 0.9, 0.95, 1.0001];
+const RADIUS_EDGES_PX: [f64; 8] = [4.0, 6.0, 8.0, 10.0, 14.0, 20.0, 30.0, 80.0];
+
+fn confidence_bins(frames: &[&FrameStat]) -> Vec<ConfidenceBin> {
+    CONFIDENCE_EDGES
+        .windows(2)
+        .map(|w| {
+            let inside: Vec<(f64, bool)> = frames
+                .iter()
+                .filter_map(|f| Some((f.confidence?, f.hit)))
+                .filter(|(c, _)| (w[0]..w[1]).contains(c))
+                .collect();
+            let n = inside.len();
+            ConfidenceBin {
+                lo: w[0],
+                hi: w[1].min(1.0),
+                observations: n,
+                mean_confidence: (n > 0)
+                    .then(|| inside.iter().map(|x| x.0).sum::<f64>() / n as f64),
+                ball_fraction: (n > 0)
+                    .then(|| inside.iter().filter(|x| x.1).count() as f64 / n as f64),
+            }
+        })
+        .collect()
+}
+
+fn radius_bins(frames: &[&FrameStat]) -> Vec<RadiusBin> {
+    RADIUS_EDGES_PX
+        .windows(2)
+        .map(|w| {
+            let seen: Vec<&&FrameStat> = frames
+                .iter()
+                .filter(|f| f.visible && (w[0]..w[1]).contains(&f.radius_px))
+                .collect();
+            let hits = seen.iter().filter(|f| f.hit).count();
+            RadiusBin {
+                lo_px: w[0],
+                hi_px: w[1],
+                visible: seen.len(),
+                recall: (!seen.is_empty()).then(|| hits as f64 / seen.len() as f64),
+            }
+        })
+        .collect()
+}
+
+fn push_target(
+    out: &mut Vec<TargetCheck>,
+    scenario: &str,
+    target: &str,
+    value: Option<f64>,
+    limit: f64,
+    at_least: bool,
+) {
+    let met = value.is_some_and(|v| if at_least { v >= limit } else { v < limit });
+    out.push(TargetCheck {
+        scenario: scenario.into(),
+        target: target.into(),
+        value,
+        limit,
+        met,
+    });
+}
+
+/// Condenses the results into the report and checks the vision targets.
+pub fn report(
+    scenarios: &[&str],
+    seeds: u64,
+    latency_s: f64,
+    results: &[VisionResult],
+    calibration: CalibrationCheck,
+) -> VisionReport {
+    let runs: Vec<eval::RunResult> = results.iter().map(|r| r.result.clone()).collect();
+    let fusion = eval::report(scenarios, seeds, &runs);
+    let all: Vec<&FrameStat> = results.iter().flat_map(|r| &r.frames).collect();
+    let detection: Vec<ScenarioDetection> = scenarios
+        .iter()
+        .map(|s| ScenarioDetection {
+            scenario: s.to_string(),
+            detection: Detection::of(
+                results
+                    .iter()
+                    .filter(|r| r.result.scenario == *s)
+                    .flat_map(|r| &r.frames),
+            ),
+        })
+        .collect();
+    let ms: Vec<f64> = all.iter().map(|f| f.pipeline_ms).collect();
+    let mut targets = Vec::new();
+    for s in scenarios {
+        let row = fusion
+            .scenarios
+            .iter()
+            .find(|r| r.scenario == *s && r.method == "fusion");
+        let det = detection
+            .iter()
+            .find(|d| d.scenario == *s)
+            .map(|d| &d.detection);
+        push_target(
+            &mut targets,
+            s,
+            "position score >= 0.97",
+            row.and_then(|r| r.summary.position_score),
+            0.97,
+            true,
+        );
+        push_target(
+            &mut targets,
+            s,
+            "direction error < 1°",
+            row.and_then(|r| r.summary.direction_error_deg),
+            1.0,
+            false,
+        );
+        push_target(
+            &mut targets,
+            s,
+            "recall >= 0.97",
+            det.and_then(|d| d.recall),
+            0.97,
+            true,
+        );
+        push_target(
+            &mut targets,
+            s,
+            "precision >= 0.99",
+            det.and_then(|d| d.precision),
+            0.99,
+            true,
+        );
+    }
+    push_target(
+        &mut targets,
+        "all",
+        "lens error (max) < 0.5 px",
+        Some(calibration.lens.max_px),
+        0.5,
+        false,
+    );
+    VisionReport {
+        seeds: seeds as usize,
+        latency_s,
+        fusion,
+        detection,
+        detection_overall: Detection::of(all.iter().copied()),
+        confidence: confidence_bins(&all),
+        recall_by_radius: radius_bins(&all),
+        timing: Timing {
+            frames: ms.len(),
+            median_ms: quantile(&ms, 0.5),
+            p99_ms: quantile(&ms, 0.99),
+        },
+        calibration,
+        targets,
+    }
+}
+
+fn pct(v: Option<f64>) -> String {
+    v.map_or("–".into(), |x| format!("{:.1}", x * 100.0))
+}
+
+fn num(v: Option<f64>, digits: usize) -> String {
+    v.map_or("–".into(), |x| format!("{x:.digits$}"))
+}
+
+/// The seed's metrics per scenario and method, on the agent's observations.
+pub fn metrics_table(rep: &VisionReport) -> String {
+    let mut out = String::from(
+        "| scenario | method | coverage % | score % | direction err ° | distance err % | vel RMSE cm/s | vel score % | err@1 s cm | rel@1 s % |\n|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in &rep.fusion.scenarios {
+        let m = &r.summary;
+        out.push_str(&format!(
+            "| {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} |\n",
+            r.scenario,
+            r.method,
+            m.coverage * 100.0,
+            pct(m.position_score),
+            num(m.direction_error_deg, 2),
+            pct(m.distance_rel_error),
+            pct(m.velocity_rmse_mps),
+            pct(m.velocity_score),
+            pct(m.horizon_median(1.0)),
+            pct(m.horizon_rel_error.get("1.0").and_then(|s| s.median)),
+        ));
+    }
+    out
+}
+
+/// Detection per scenario and overall.
+pub fn detection_table(rep: &VisionReport) -> String {
+    let mut out = String::from(
+        "| scenario | frames | ball visible | found | recall % | observations | false | precision % |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let rows = rep
+        .detection
+        .iter()
+        .map(|d| (d.scenario.as_str(), &d.detection))
+        .chain([("**all**", &rep.detection_overall)]);
+    for (s, d) in rows {
+        out.push_str(&format!(
+            "| {s} | {} | {} | {} | {} | {} | {} | {} |\n",
+            d.frames,
+            d.visible,
+            d.hits,
+            pct(d.recall),
+            d.observations,
+            d.false_sightings,
+            pct(d.precision)
+        ));
+    }
+    out
+}
+
+/// Confidence calibration, pipeline time and the lens check.
+pub fn extras_table(rep: &VisionReport) -> String {
+    let mut out = String::from(
+        "| confidence | observations | mean confidence | was the ball % |\n|---|---|---|---|\n",
+    );
+    for b in &rep.confidence {
+        out.push_str(&format!(
+            "| {:.2}–{:.2} | {} | {} | {} |\n",
+            b.lo,
+            b.hi,
+            b.observations,
+            num(b.mean_confidence, 3),
+            pct(b.ball_fraction)
+        ));
+    }
+    let t = &rep.timing;
+    let c = &rep.calibration;
+    out.push_str(&format!(
+        "\nPipeline time per frame (`Agent::on_frame`, {} frames): median {} ms, p99 {} ms.\n\n\
+         Calibration: the shipped calibration's RMS reprojection error on its boards is {:.3} px; \
+         against the simulator's true lens over a {:.0} px grid of the whole 640×360 image \
+         ({} points, {} not projectable) the fitted model is off by {:.3} px RMS, {:.3} px at most.\n",
+        t.frames,
+        num(t.median_ms, 2),
+        num(t.p99_ms, 2),
+        c.shipped_rms_px,
+        c.grid_step_px,
+        c.lens.pixels,
+        c.lens.failed,
+        c.lens.rms_px,
+        c.lens.max_px,
+    ));
+    out
+}
+
+/// The targets as a markdown table.
+pub fn targets_table(targets: &[TargetCheck]) -> String {
+    let met = targets.iter().filter(|t| t.met).count();
+    let mut s = format!(
+        "Targets met: {met} of {}.\n\n| scenario | target | measured | met |\n|---|---|---|---|\n",
+        targets.len()
+    );
+    for t in targets {
+        s.push_str(&format!(
+            "| {} | {} | {} | {} |\n",
+            t.scenario,
+            t.target,
+            num(t.value, 3),
+            if t.met { "yes" } else { "**no**" }
+        ));
+    }
+    s
+}
+
+/// Everything printed and written into the document, after the line naming the command.
+pub fn markdown(rep: &VisionReport) -> String {
+    format!(
+        "{}\n{}\n{}\n{}",
+        metrics_table(rep),
+        detection_table(rep),
+        extras_table(rep),
+        targets_table(&rep.targets)
+    )
+}
+
+/// Detection recall against the ball's image radius.
+pub fn recall_chart(rep: &VisionReport) -> Chart {
+    let mut chart = Chart::new(
+        "Detection recall by ball image radius (seed scenarios, rendered)",
+        "ball image radius (px)",
+        "recall",
+    );
+    let pts: Vec<(f64, f64)> = rep
+        .recall_by_radius
+        .iter()
+        .filter_map(|b| Some((0.5 * (b.lo_px + b.hi_px.min(40.0)), b.recall?)))
+        .collect();
+    chart.series.push(Series::new(
+        "recall",
+        PALETTE[0],
+        Style::LineAndMarkers(Marker::Circle),
+        pts,
+    ));
+    chart
+}
+
+/// Writes the plot into `dir`; returns the file written.
+pub fn write_plot(dir: &Path, rep: &VisionReport) -> anyhow::Result<String> {
+    std::fs::create_dir_all(dir)?;
+    let path = dir.join("vision_recall_by_radius.png");
+    write_png(&recall_chart(rep), &path)?;
+    Ok(path.display().to_string())
+}
