@@ -82,10 +82,15 @@ enum Outbound {
     Status(RobotStatus),
 }
 
+/// A live frame more than this late is skipped, seconds.
+const MAX_LAG_S: f64 = 0.2;
+
 /// Counts reported at the end.
 #[derive(Debug, Default)]
 struct Summary {
     frames: u64,
+    /// Live frames skipped because the pipeline had fallen behind.
+    skipped: u64,
     observations: u64,
     truth_frames: u64,
     truth_visible: u64,
@@ -226,6 +231,11 @@ fn perceive(
             let ahead_s = frame.stamp.secs_since(wall_now());
             if ahead_s > 0.0 {
                 std::thread::sleep(Duration::from_secs_f64(ahead_s.min(1.0)));
+            } else if ahead_s < -MAX_LAG_S {
+                // A camera hands over its newest frame: a pipeline that fell behind skips
+                // frames instead of publishing stale sightings.
+                summary.skipped += 1;
+                continue;
             }
         }
         if let Some(state) = shared.lock().ok().and_then(|s| s.clone()) {
@@ -350,6 +360,12 @@ fn print_summary(agent_id: &str, s: &Summary) {
             s.observations,
             q(0.5),
             q(0.99)
+        );
+    }
+    if s.skipped > 0 {
+        println!(
+            "{agent_id}: {} frames skipped because the pipeline fell behind",
+            s.skipped
         );
     }
     if s.truth_frames > 0 {
