@@ -248,27 +248,12 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
-    use crate::camera::{Distortion, Intrinsics};
     use crate::detect::{HoughOnly, NoClock};
+    use crate::test_fixtures::{head as head_yawed, miro_lens as lens};
     use proto::Validate;
 
-    fn lens() -> CameraModel {
-        CameraModel {
-            intrinsics: Intrinsics {
-                fx_px: 344.0,
-                fy_px: 344.0,
-                cx_px: 320.0,
-                cy_px: 180.0,
-                width_px: 640,
-                height_px: 360,
-            },
-            distortion: Distortion::KannalaBrandt {
-                k1: -0.1,
-                k2: 0.005,
-                k3: 0.0,
-                k4: 0.0,
-            },
-        }
+    fn head() -> HeadJoints {
+        head_yawed(0.0)
     }
 
     fn agent() -> Agent {
@@ -280,14 +265,6 @@ mod tests {
             Box::new(HoughOnly),
         )
         .unwrap()
-    }
-
-    fn head() -> HeadJoints {
-        HeadJoints {
-            lift_rad: proto::miro::DEFAULT_LIFT_RAD,
-            yaw_rad: 0.0,
-            pitch_rad: proto::miro::DEFAULT_PITCH_RAD,
-        }
     }
 
     /// A frame with an orange disc in the lower middle of the image, about the size a ball

@@ -3,37 +3,13 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::camera::{Distortion, Intrinsics};
 use crate::detect::{DetectorConfig, HoughOnly, NoClock};
 use crate::kinematics::camera_pose;
+use crate::test_fixtures::{head as head_yawed, miro_lens as lens};
 use nalgebra::Vector3;
-use proto::miro::{DEFAULT_LIFT_RAD, DEFAULT_PITCH_RAD};
-
-fn lens() -> CameraModel {
-    CameraModel {
-        intrinsics: Intrinsics {
-            fx_px: 344.0,
-            fy_px: 344.0,
-            cx_px: 320.0,
-            cy_px: 180.0,
-            width_px: 640,
-            height_px: 360,
-        },
-        distortion: Distortion::KannalaBrandt {
-            k1: -0.1,
-            k2: 0.005,
-            k3: 0.0,
-            k4: 0.0,
-        },
-    }
-}
 
 fn head() -> HeadJoints {
-    HeadJoints {
-        lift_rad: DEFAULT_LIFT_RAD,
-        yaw_rad: 0.0,
-        pitch_rad: DEFAULT_PITCH_RAD,
-    }
+    head_yawed(0.0)
 }
 
 /// A grey frame with an orange disc where a ball of `radius_m` at floor point `p` appears

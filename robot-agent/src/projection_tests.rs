@@ -4,37 +4,8 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::camera::{Distortion, Intrinsics};
+use crate::test_fixtures::{head as head_yawed, miro_lens};
 use approx::assert_relative_eq;
-use proto::miro::{DEFAULT_LIFT_RAD, DEFAULT_PITCH_RAD};
-
-/// A 640×360 fisheye with about 120° of horizontal field of view, like a MiRo camera.
-fn miro_lens() -> CameraModel {
-    CameraModel {
-        intrinsics: Intrinsics {
-            fx_px: 344.0,
-            fy_px: 344.0,
-            cx_px: 320.0,
-            cy_px: 180.0,
-            width_px: 640,
-            height_px: 360,
-        },
-        distortion: Distortion::KannalaBrandt {
-            k1: -0.1,
-            k2: 0.005,
-            k3: 0.0,
-            k4: 0.0,
-        },
-    }
-}
-
-fn head() -> HeadJoints {
-    HeadJoints {
-        lift_rad: DEFAULT_LIFT_RAD,
-        yaw_rad: 0.1,
-        pitch_rad: DEFAULT_PITCH_RAD,
-    }
-}
 
 fn pose() -> Pose2 {
     Pose2 {
@@ -42,6 +13,10 @@ fn pose() -> Pose2 {
         y_m: 0.3,
         theta_rad: 0.4,
     }
+}
+
+fn head() -> HeadJoints {
+    head_yawed(0.1)
 }
 
 const R: f64 = 0.04;

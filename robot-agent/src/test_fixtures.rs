@@ -23,3 +23,34 @@ pub fn disc_mask() -> Mask {
     }
     m
 }
+
+/// A 640×360 Kannala–Brandt fisheye with about 120° of horizontal field of view, close to
+/// a MiRo camera's calibration.
+pub fn miro_lens() -> crate::camera::CameraModel {
+    use crate::camera::{CameraModel, Distortion, Intrinsics};
+    CameraModel {
+        intrinsics: Intrinsics {
+            fx_px: 344.0,
+            fy_px: 344.0,
+            cx_px: 320.0,
+            cy_px: 180.0,
+            width_px: 640,
+            height_px: 360,
+        },
+        distortion: Distortion::KannalaBrandt {
+            k1: -0.1,
+            k2: 0.005,
+            k3: 0.0,
+            k4: 0.0,
+        },
+    }
+}
+
+/// The head pose robots hold when not scanning, turned `yaw_rad` to the left.
+pub fn head(yaw_rad: f64) -> proto::HeadJoints {
+    proto::HeadJoints {
+        lift_rad: proto::miro::DEFAULT_LIFT_RAD,
+        yaw_rad,
+        pitch_rad: proto::miro::DEFAULT_PITCH_RAD,
+    }
+}

@@ -97,9 +97,24 @@ pub fn evaluate(
     cfg: &SimConfig,
     jobs: usize,
 ) -> anyhow::Result<Vec<RunResult>> {
-    let work: Vec<(String, u64)> = scenarios
+    let mut results = for_each_run(scenarios, seeds, jobs, |name, seed| {
+        Ok(evaluate_run(&sim::run_scenario(name, seed, cfg)?))
+    })?;
+    results.sort_by(|a, b| (a.scenario.as_str(), a.seed).cmp(&(b.scenario.as_str(), b.seed)));
+    Ok(results)
+}
+
+/// Calls `job` for every scenario × seed on `jobs` threads, with a progress line on
+/// stderr; the results come in completion order. The first error fails the whole.
+pub fn for_each_run<T: Send>(
+    scenarios: &[&str],
+    seeds: u64,
+    jobs: usize,
+    job: impl Fn(&str, u64) -> anyhow::Result<T> + Sync,
+) -> anyhow::Result<Vec<T>> {
+    let work: Vec<(&str, u64)> = scenarios
         .iter()
-        .flat_map(|s| (0..seeds).map(move |k| (s.to_string(), k)))
+        .flat_map(|s| (0..seeds).map(move |k| (*s, k)))
         .collect();
     let total = work.len();
     let queue = Mutex::new(work.into_iter());
@@ -112,9 +127,8 @@ pub fn evaluate(
                 loop {
                     let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
                     let Some((name, seed)) = next else { break };
-                    match sim::run_scenario(&name, seed, cfg) {
-                        Ok(run) => {
-                            let r = evaluate_run(&run);
+                    match job(name, seed) {
+                        Ok(r) => {
                             if let Ok(mut res) = results.lock() {
                                 res.push(r);
                                 eprint!(
@@ -128,7 +142,7 @@ pub fn evaluate(
                         }
                         Err(e) => {
                             if let Ok(mut errs) = errors.lock() {
-                                errs.push(format!("{name} seed {seed}: {e}"));
+                                errs.push(format!("{name} seed {seed}: {e:#}"));
                             }
                         }
                     }
@@ -139,11 +153,9 @@ pub fn evaluate(
     eprintln!();
     let errors = errors.into_inner().unwrap_or_default();
     if let Some(e) = errors.first() {
-        anyhow::bail!("simulation failed: {e}");
+        anyhow::bail!("run failed: {e}");
     }
-    let mut results = results.into_inner().unwrap_or_default();
-    results.sort_by(|a, b| (a.scenario.as_str(), a.seed).cmp(&(b.scenario.as_str(), b.seed)));
-    Ok(results)
+    Ok(results.into_inner().unwrap_or_default())
 }
 
 /// Pools the samples of every seed per (scenario, method).

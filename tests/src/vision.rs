@@ -19,7 +19,6 @@ use sim::lens::LensModel;
 use sim::render::CameraRig;
 use sim::render_scene::BallTruth;
 use sim::{Delivery, ObsKind, SimConfig, SimRun};
-use std::sync::Mutex;
 use std::time::Instant;
 
 /// The simulator puts pixel centres at +0.5 (its origin is the top-left pixel's corner);
@@ -216,50 +215,9 @@ pub fn evaluate_vision(
     cfg: &VisionConfig,
     jobs: usize,
 ) -> anyhow::Result<Vec<VisionResult>> {
-    let work: Vec<(&str, u64)> = scenarios
-        .iter()
-        .flat_map(|s| (0..seeds).map(move |k| (*s, k)))
-        .collect();
-    let total = work.len();
-    let queue = Mutex::new(work.into_iter());
-    let results = Mutex::new(Vec::with_capacity(total));
-    let errors = Mutex::new(Vec::new());
-    let started = Instant::now();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs.max(1) {
-            scope.spawn(|| {
-                loop {
-                    let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-                    let Some((name, seed)) = next else { break };
-                    match evaluate_vision_run(name, seed, sim_cfg, cfg) {
-                        Ok(r) => {
-                            if let Ok(mut res) = results.lock() {
-                                res.push(r);
-                                eprint!(
-                                    "\r[{:>3}/{total}] {:<24} seed {:>3}  {:>6.1} s",
-                                    res.len(),
-                                    name,
-                                    seed,
-                                    started.elapsed().as_secs_f64()
-                                );
-                            }
-                        }
-                        Err(e) => {
-                            if let Ok(mut errs) = errors.lock() {
-                                errs.push(format!("{name} seed {seed}: {e:#}"));
-                            }
-                        }
-                    }
-                }
-            });
-        }
-    });
-    eprintln!();
-    let errors = errors.into_inner().unwrap_or_default();
-    if let Some(e) = errors.first() {
-        anyhow::bail!("vision run failed: {e}");
-    }
-    let mut results = results.into_inner().unwrap_or_default();
+    let mut results = crate::eval::for_each_run(scenarios, seeds, jobs, |name, seed| {
+        evaluate_vision_run(name, seed, sim_cfg, cfg)
+    })?;
     results.sort_by(|a, b| {
         (a.result.scenario.as_str(), a.result.seed)
             .cmp(&(b.result.scenario.as_str(), b.result.seed))

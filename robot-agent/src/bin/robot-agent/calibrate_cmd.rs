@@ -69,16 +69,7 @@ fn parse_board(text: &str, square_m: f64) -> Result<Board> {
 
 /// The images of a folder, sorted by name.
 fn folder_images(dir: &Path) -> Result<Vec<(String, GrayImage)>> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
-        })
-        .collect();
-    paths.sort();
+    let paths = crate::frames_io::image_files(dir)?;
     let mut out = Vec::new();
     for p in paths {
         let name = p

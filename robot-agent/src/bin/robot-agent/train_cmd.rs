@@ -33,16 +33,7 @@ pub struct TrainArgs {
 
 /// Every image of a folder as a patch: the whole image is the candidate window.
 fn folder_patches(dir: &Path) -> Result<Vec<Patch>> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
-        })
-        .collect();
-    paths.sort();
+    let paths = crate::frames_io::image_files(dir)?;
     let cfg = PatchConfig::default();
     let mut out = Vec::new();
     for p in &paths {
