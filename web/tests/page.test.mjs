@@ -1,5 +1,7 @@
-// The coach's page in a real browser against a running demo: the server and four
-// simulated MiRos on loopback. Checks that the page goes live, lists the robots online,
+// The coach's page in a real browser against a running demo: the server and four robot
+// agents (rendered cameras of a simulated match, the real perception) on loopback, or the
+// modelled robots when the agent binary is not built. Checks that the page goes live, lists
+// the robots online,
 // shows the ball and draws it on the pitch; saves a screenshot.
 //
 //   FUSION_SERVER=target/debug/fusion-server node web/tests/page.test.mjs
