@@ -33,11 +33,11 @@ const [httpPort, zenohPort] = [await freePort(), await freePort()];
 const demo = spawn(bin, [
   "demo", "--http", `127.0.0.1:${httpPort}`, "--listen", `tcp/127.0.0.1:${zenohPort}`, "--for-s", "90",
 ], { stdio: ["ignore", "pipe", "inherit"], env: { ...process.env, RUST_LOG: "warn,zenoh=error" } });
+let demoOut = "";
 const url = await new Promise((resolve, reject) => {
-  let out = "";
   demo.stdout.on("data", (d) => {
-    out += d;
-    const m = out.match(/Open (http:\/\/\S+\/)/);
+    demoOut += d;
+    const m = demoOut.match(/Open (http:\/\/\S+\/)/);
     if (m) resolve(m[1]);
   });
   demo.on("exit", (code) => reject(new Error(`demo exited early (${code})`)));
@@ -73,6 +73,11 @@ try {
     return n;
   });
   if (orange < 10) fail(`no ball drawn on the pitch (${orange} orange pixels)`);
+  // Real agents report their cameras' floor footprints, and the page draws them.
+  if (demoOut.includes("robot-agent processes")) {
+    await page.waitForFunction(() => Number(document.getElementById("pitch").dataset.footprints) >= 4, null, { timeout: 30_000 })
+      .catch(() => fail("no camera footprints drawn"));
+  }
   mkdirSync("out", { recursive: true });
   await page.screenshot({ path: "out/web-demo.png" });
   if (errors.length) fail(`page errors: ${errors.join("; ")}`);
