@@ -6,21 +6,11 @@
 
 use super::*;
 use crate::image::ImageError;
+use crate::test_fixtures::orange;
 use approx::assert_abs_diff_eq;
 use proptest::prelude::*;
 
 /// Orange ball thresholds.
-fn orange() -> HsvThresholds {
-    HsvThresholds {
-        hue_lo_deg: 15.0,
-        hue_hi_deg: 45.0,
-        sat_min: 0.5,
-        sat_max: 1.0,
-        val_min: 0.4,
-        val_max: 1.0,
-    }
-}
-
 /// Limits wide enough for any orange ball.
 fn orange_limits() -> HsvThresholds {
     HsvThresholds {

@@ -4,17 +4,7 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-
-fn orange() -> HsvThresholds {
-    HsvThresholds {
-        hue_lo_deg: 15.0,
-        hue_hi_deg: 45.0,
-        sat_min: 0.5,
-        sat_max: 1.0,
-        val_min: 0.4,
-        val_max: 1.0,
-    }
-}
+use crate::test_fixtures::orange;
 
 /// A green frame with a disc of `rgb` of radius 12 px at (30, 30); the disc's left
 /// columns left of x = 18 + `left_cols` is painted `left_rgb` instead.

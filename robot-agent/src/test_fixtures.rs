@@ -54,3 +54,15 @@ pub fn head(yaw_rad: f64) -> proto::HeadJoints {
         pitch_rad: proto::miro::DEFAULT_PITCH_RAD,
     }
 }
+
+/// An orange ball's colour window.
+pub fn orange() -> crate::hsv::HsvThresholds {
+    crate::hsv::HsvThresholds {
+        hue_lo_deg: 15.0,
+        hue_hi_deg: 45.0,
+        sat_min: 0.5,
+        sat_max: 1.0,
+        val_min: 0.4,
+        val_max: 1.0,
+    }
+}

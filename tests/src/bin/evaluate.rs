@@ -91,12 +91,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.json {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        }
-        std::fs::write(path, serde_json::to_string_pretty(&rep)?)
-            .with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        write_json(path, &rep)?;
     }
     if let Some(path) = &args.doc {
         let section = doc_section(&args, &names, &rep, &table, started.elapsed().as_secs_f64());
@@ -184,12 +179,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     println!("{text}");
     let secs = started.elapsed().as_secs_f64();
     if let Some(path) = &args.json {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        }
-        std::fs::write(path, serde_json::to_string_pretty(&rep)?)
-            .with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        write_json(path, &rep)?;
     }
     if let Some(path) = &args.markdown {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
@@ -212,5 +202,16 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
         eprintln!("updated {}", path.display());
     }
     eprintln!("wrote {}", vision_report::write_plot(&args.plots, &rep)?);
+    Ok(())
+}
+
+/// Writes a report as pretty JSON, creating the folder.
+fn write_json(path: &std::path::Path, report: &impl serde::Serialize) -> anyhow::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(path, serde_json::to_string_pretty(report)?)
+        .with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("wrote {}", path.display());
     Ok(())
 }

@@ -82,6 +82,10 @@ enum Outbound {
     Status(RobotStatus),
 }
 
+/// Frames whose pipeline time the summary keeps (about nine hours of both cameras at
+/// 15 Hz), so a live agent's memory stays bounded.
+const MAX_TIMED_FRAMES: usize = 1_000_000;
+
 /// A live frame more than this late is skipped, seconds.
 const MAX_LAG_S: f64 = 0.2;
 
@@ -238,7 +242,8 @@ fn perceive(
                 continue;
             }
         }
-        if let Some(state) = shared.lock().ok().and_then(|s| s.clone()) {
+        // Each new state is handed over once; the agent keeps the latest.
+        if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
             agent.on_ball_state(state);
         }
         let input = FrameInput {
@@ -252,7 +257,9 @@ fn perceive(
         timer.start();
         let outcome = agent.on_frame(&input, &mut timer).context("pipeline")?;
         summary.frames += 1;
-        summary.total_ms.push(timer.frame_ms());
+        if summary.total_ms.len() < MAX_TIMED_FRAMES {
+            summary.total_ms.push(timer.frame_ms());
+        }
         if let Some(t) = &truth {
             summary.truth_frames += 1;
             let visible = t.in_frame
