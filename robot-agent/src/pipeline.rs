@@ -21,7 +21,8 @@ use crate::detect::{Candidate, CandidateClassifier, DetectError, Detector, Stage
 use crate::hough::Circle;
 use crate::image::RgbImage;
 use crate::projection::{
-    FloorPoint, ProjectionError, ProjectionNoise, distance_from_image_radius, project_ball,
+    FloorPoint, ImageBall, ProjectionError, ProjectionNoise, distance_from_image_radius,
+    project_ball,
 };
 use proto::{Camera, HeadJoints, Pitch, Pose2};
 use serde::{Deserialize, Serialize};
@@ -160,11 +161,19 @@ fn validate(
     }
     let circle = candidate.circle;
     let ball_radius_m = ctx.pitch.ball_radius_m;
+    let angular_radius_rad = candidate.angular_radius_rad.filter(|a| *a > 0.0).or_else(|| {
+        distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
+            .map(|d| (ball_radius_m / d).clamp(-1.0, 1.0).asin())
+    });
+    let ball = ImageBall {
+        center_px: circle.center_px,
+        radius_px: circle.radius_px,
+        angular_radius_rad,
+    };
     let floor = project_ball(
         ctx.model,
         ctx.camera,
-        circle.center_px,
-        circle.radius_px,
+        &ball,
         &ctx.pose,
         &ctx.pose_covariance,
         &ctx.head,
@@ -176,16 +185,12 @@ fn validate(
     if outside_m > cfg.pitch_margin_m {
         return Err(Rejection::OffPitch { outside_m });
     }
-    let seen_m = match candidate.angular_radius_rad {
-        Some(alpha) if alpha > 0.0 => Some(ball_radius_m / alpha.sin()),
-        _ => {
-            distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
-        }
-    };
-    if let Some(seen_m) = seen_m {
+    if let Some(alpha) = angular_radius_rad {
+        // The two range cues must roughly agree before they are combined.
+        let seen_m = ball_radius_m / alpha.sin();
         let cam = crate::kinematics::camera_pose(&ctx.pose, &ctx.head, ctx.camera);
         let drop_m = cam.centre_m.z - ball_radius_m;
-        let ground_m = floor.range_m.hypot(drop_m);
+        let ground_m = floor.ground_range_m.hypot(drop_m);
         let ratio = seen_m / ground_m;
         if !(cfg.radius_ratio_min..=cfg.radius_ratio_max).contains(&ratio) {
             return Err(Rejection::RadiusMismatch { ratio });

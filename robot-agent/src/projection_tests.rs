@@ -22,6 +22,26 @@ fn head() -> HeadJoints {
 const R: f64 = 0.04;
 const POSE_COV: [f64; 9] = [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4];
 
+/// A ball at `pixel` with image radius `radius_px` and no measured size.
+fn at(pixel: [f64; 2], radius_px: f64) -> ImageBall {
+    ImageBall {
+        center_px: pixel,
+        radius_px,
+        angular_radius_rad: None,
+    }
+}
+
+/// The ball whose centre is at `p` as `camera` sees it, with its true angular radius.
+fn seen(p: [f64; 2], camera: Camera, radius_px: f64) -> ImageBall {
+    let cam = camera_pose(&pose(), &head(), camera);
+    let q = cam.point_in_camera(Vector3::new(p[0], p[1], R));
+    ImageBall {
+        center_px: pixel_of(p, camera),
+        radius_px,
+        angular_radius_rad: Some((R / q.norm()).asin()),
+    }
+}
+
 /// The pixel where a ball centre at `p` appears.
 fn pixel_of(p: [f64; 2], camera: Camera) -> [f64; 2] {
     let cam = camera_pose(&pose(), &head(), camera);
@@ -105,8 +125,7 @@ fn covariance_is_elongated_along_the_ray_and_grows_with_range() {
         let fp = project_ball(
             &miro_lens(),
             Camera::Left,
-            pixel,
-            8.0,
+            &at(pixel, 8.0),
             &pose(),
             &POSE_COV,
             &head(),
@@ -135,8 +154,7 @@ fn bigger_image_radius_and_pose_uncertainty_widen_the_covariance() {
         project_ball(
             &miro_lens(),
             Camera::Right,
-            pixel,
-            radius,
+            &at(pixel, radius),
             &pose(),
             cov,
             &head(),
@@ -154,72 +172,143 @@ fn bigger_image_radius_and_pose_uncertainty_widen_the_covariance() {
     assert!(wide[0] + wide[3] > 4.0 * (small[0] + small[3]) * 0.5);
 }
 
-/// Samples the inputs from their stated distributions and checks that the floor points'
-/// scatter matches the propagated covariance (normalised squared errors average about 2).
-#[test]
-fn covariance_matches_sampled_errors() {
-    let noise = ProjectionNoise::default();
-    let pose_cov = [4e-5, 0.0, 0.0, 0.0, 4e-5, 0.0, 0.0, 0.0, 1e-4];
-    let pixel = pixel_of([0.2, 1.0], Camera::Left);
-    let radius = 10.0;
-    let fp = project_ball(
-        &miro_lens(),
-        Camera::Left,
-        pixel,
-        radius,
-        &pose(),
-        &pose_cov,
-        &head(),
-        R,
-        &noise,
-    )
-    .unwrap();
-    let c = Matrix2::new(
-        fp.covariance_m2[0],
-        fp.covariance_m2[1],
-        fp.covariance_m2[2],
-        fp.covariance_m2[3],
-    );
-    let inv = c.try_inverse().unwrap();
-    let sigma_px = noise.centre_sigma_px + noise.centre_sigma_per_radius * radius;
-    let sigmas = [
-        sigma_px,
-        sigma_px,
-        pose_cov[0].sqrt(),
-        pose_cov[4].sqrt(),
-        pose_cov[8].sqrt(),
-        noise.joint_sigma_rad[0],
-        noise.joint_sigma_rad[1],
-        noise.joint_sigma_rad[2],
-    ];
-    let base = inputs(pixel, &pose(), &head());
-    // A small deterministic Gaussian source (Box–Muller over a splitmix sequence).
+/// A small deterministic standard normal source (Box–Muller over a splitmix sequence).
+fn gaussian_source() -> impl FnMut() -> f64 {
     let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-    let mut uniform = || {
+    let mut uniform = move || {
         state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
         let mut z = state;
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
     };
-    let n = 4000;
-    let mut nees = 0.0;
-    for _ in 0..n {
-        let mut x = base;
-        for (k, s) in sigmas.iter().enumerate() {
-            let g = (-2.0 * (1.0 - uniform()).ln()).sqrt()
-                * (2.0 * std::f64::consts::PI * uniform()).cos();
-            x[k] += s * g;
-        }
-        let (p, _) = floor_point_of(&miro_lens(), Camera::Left, &x, R, f64::INFINITY).unwrap();
-        let e = nalgebra::Vector2::new(p[0] - fp.position_m[0], p[1] - fp.position_m[1]);
-        nees += (e.transpose() * inv * e)[(0, 0)];
+    move || {
+        (-2.0 * (1.0 - uniform()).ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos()
     }
-    let mean = nees / f64::from(n);
-    assert!(
-        (1.8..2.2).contains(&mean),
-        "mean normalised squared error {mean}"
-    );
+}
+
+/// Samples the inputs from their stated distributions and checks that the floor points'
+/// scatter matches the propagated covariance (normalised squared errors average about 2),
+/// for the ground plane alone and for the two cues combined.
+#[test]
+fn covariance_matches_sampled_errors() {
+    let noise = ProjectionNoise::default();
+    let pose_cov = [4e-5, 0.0, 0.0, 0.0, 4e-5, 0.0, 0.0, 0.0, 1e-4];
+    let radius = 10.0;
+    for ball in [
+        at(pixel_of([0.2, 1.0], Camera::Left), radius),
+        seen([0.2, 1.0], Camera::Left, radius),
+        seen([0.8, 1.9], Camera::Left, 6.0),
+    ] {
+        let fp = project_ball(
+            &miro_lens(),
+            Camera::Left,
+            &ball,
+            &pose(),
+            &pose_cov,
+            &head(),
+            R,
+            &noise,
+        )
+        .unwrap();
+        let inv = Matrix2::from_row_slice(&fp.covariance_m2)
+            .try_inverse()
+            .unwrap();
+        let cov = inputs_covariance(&ball, &pose_cov, &noise);
+        let base = inputs(
+            ball.center_px,
+            &pose(),
+            &head(),
+            ball.angular_radius_rad.unwrap_or(0.0),
+        );
+        let mut gaussian = gaussian_source();
+        let n = 4000;
+        let mut nees = 0.0;
+        for _ in 0..n {
+            let mut x = base;
+            for k in 0..9 {
+                x[k] += cov[(k, k)].sqrt() * gaussian();
+            }
+            let cues = cues_of(&miro_lens(), Camera::Left, &x, R).unwrap();
+            let p = cues.point(fp.ground_weight);
+            let e = nalgebra::Vector2::new(p[0] - fp.position_m[0], p[1] - fp.position_m[1]);
+            nees += (e.transpose() * inv * e)[(0, 0)];
+        }
+        let mean = nees / f64::from(n);
+        assert!(
+            (1.8..2.2).contains(&mean),
+            "mean normalised squared error {mean} for {ball:?}"
+        );
+    }
+}
+
+/// The along-ray standard deviation of a floor point seen from the robot's camera.
+fn sigma_along(fp: &FloorPoint, camera: Camera) -> f64 {
+    let cam = camera_pose(&pose(), &head(), camera);
+    let d = nalgebra::Vector2::new(
+        fp.position_m[0] - cam.centre_m.x,
+        fp.position_m[1] - cam.centre_m.y,
+    )
+    .normalize();
+    (d.transpose() * Matrix2::from_row_slice(&fp.covariance_m2) * d)[(0, 0)].sqrt()
+}
+
+#[test]
+fn apparent_size_narrows_the_range_far_away_and_resists_an_elevation_bias() {
+    let noise = ProjectionNoise::default();
+    let heading = pose().theta_rad;
+    let project = |ball: &ImageBall, head: &HeadJoints| {
+        project_ball(
+            &miro_lens(),
+            Camera::Left,
+            ball,
+            &pose(),
+            &POSE_COV,
+            head,
+            R,
+            &noise,
+        )
+        .unwrap()
+    };
+    for fwd in [1.5, 2.0, 2.5] {
+        let p = [
+            pose().x_m + fwd * heading.cos(),
+            pose().y_m + fwd * heading.sin(),
+        ];
+        let sized = seen(p, Camera::Left, 7.0);
+        let ground_only = at(sized.center_px, 7.0);
+        let (a, b) = (project(&sized, &head()), project(&ground_only, &head()));
+        assert!(
+            sigma_along(&a, Camera::Left) < 0.8 * sigma_along(&b, Camera::Left),
+            "at {fwd} m: {} vs {}",
+            sigma_along(&a, Camera::Left),
+            sigma_along(&b, Camera::Left)
+        );
+        assert!(a.ground_weight > 0.0 && a.ground_weight < 1.0, "{a:?}");
+        assert_eq!(b.ground_weight, 1.0);
+        // Both unbiased with exact inputs.
+        assert_relative_eq!(a.position_m[0], p[0], epsilon = 1e-6);
+        assert_relative_eq!(a.position_m[1], p[1], epsilon = 1e-6);
+        // The head reads 0.01 rad lower than it is: the ground plane moves the ball away,
+        // the apparent size holds it.
+        let mut biased = head();
+        biased.pitch_rad -= 0.01;
+        let err = |fp: &FloorPoint| (fp.position_m[0] - p[0]).hypot(fp.position_m[1] - p[1]);
+        let (a, b) = (project(&sized, &biased), project(&ground_only, &biased));
+        assert!(err(&a) < 0.7 * err(&b), "at {fwd} m: {} vs {}", err(&a), err(&b));
+    }
+}
+
+#[test]
+fn ground_weight_is_the_minimum_variance_weight() {
+    // Independent cues of equal variance: half each; a cue with no variance takes all.
+    assert_relative_eq!(ground_weight(1.0, 0.0, 1.0), 0.5);
+    assert_relative_eq!(ground_weight(1.0, 0.0, 3.0), 0.75);
+    assert_relative_eq!(ground_weight(0.0, 0.0, 1.0), 1.0);
+    assert_relative_eq!(ground_weight(1.0, 0.0, 0.0), 0.0);
+    // Degenerate: identical cues.
+    assert_relative_eq!(ground_weight(1.0, 1.0, 1.0), 1.0);
+    assert_relative_eq!(ground_weight(f64::NAN, 0.0, 1.0), 1.0);
 }
 
 #[test]

@@ -59,6 +59,69 @@ pub struct FrameStat {
     pub radius_px: f64,
     /// Wall time of `Agent::on_frame`, milliseconds.
     pub pipeline_ms: f64,
+    /// How far a hit is from the truth, in the image and on the floor.
+    pub error: Option<SightingError>,
+}
+
+/// A hit's error against the renderer's truth. The floor error is split along and across
+/// the line from the robot (as it reports its pose) to the true ball, and set against the
+/// covariance the agent stated: an honest covariance gives a mean NEES near 2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SightingError {
+    /// Detected minus true ball centre, pixels (u right, v down).
+    pub pixel_px: [f64; 2],
+    /// Detected minus true image radius, pixels.
+    pub radius_px: f64,
+    /// True distance from the robot to the ball on the floor.
+    pub range_m: f64,
+    /// Floor error away from the robot (positive: the ball was put too far away).
+    pub along_m: f64,
+    /// Floor error across the view line.
+    pub across_m: f64,
+    /// Stated standard deviations along and across the same line.
+    pub sigma_along_m: f64,
+    pub sigma_across_m: f64,
+    /// Normalised estimation error squared, eᵀ Σ⁻¹ e.
+    pub nees: f64,
+}
+
+impl SightingError {
+    fn of(truth: &BallTruth, obs: &Observation) -> Option<Self> {
+        let (p, c) = (obs.pixel?, truth.center_px?);
+        let robot = [obs.robot_pose.x_m, obs.robot_pose.y_m];
+        let (dx, dy) = (truth.world_m[0] - robot[0], truth.world_m[1] - robot[1]);
+        let range_m = dx.hypot(dy);
+        if range_m < 1e-6 {
+            return None;
+        }
+        let along = [dx / range_m, dy / range_m];
+        let across = [-along[1], along[0]];
+        let e = [
+            obs.position_m[0] - truth.world_m[0],
+            obs.position_m[1] - truth.world_m[1],
+        ];
+        let cov = nalgebra::Matrix2::from_row_slice(&obs.covariance_m2);
+        let ev = nalgebra::Vector2::new(e[0], e[1]);
+        let nees = cov.try_inverse().map(|inv| (ev.transpose() * inv * ev)[0])?;
+        let var = |u: [f64; 2]| {
+            let u = nalgebra::Vector2::new(u[0], u[1]);
+            (u.transpose() * cov * u)[0].max(0.0).sqrt()
+        };
+        let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+        Some(SightingError {
+            pixel_px: [
+                p.u_px + SIM_PIXEL_OFFSET - c[0],
+                p.v_px + SIM_PIXEL_OFFSET - c[1],
+            ],
+            radius_px: p.radius_px - truth.radius_px,
+            range_m,
+            along_m: dot(e, along),
+            across_m: dot(e, across),
+            sigma_along_m: var(along),
+            sigma_across_m: var(across),
+            nees,
+        })
+    }
 }
 
 impl FrameStat {
@@ -167,6 +230,11 @@ pub fn perceive(
                     confidence: outcome.observation.as_ref().map(|o| o.confidence),
                     radius_px,
                     pipeline_ms,
+                    error: truth
+                        .as_ref()
+                        .zip(outcome.observation.as_ref())
+                        .filter(|_| hit)
+                        .and_then(|(t, o)| SightingError::of(t, o)),
                 });
                 if let Some(obs) = outcome.observation {
                     deliveries.push(Delivery {

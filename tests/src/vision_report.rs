@@ -5,7 +5,7 @@
 use crate::eval;
 use crate::plot::{Chart, Marker, PALETTE, Series, Style, write_png};
 use crate::report::{Report, TargetCheck};
-use crate::vision::{FrameStat, LensError, VisionResult};
+use crate::vision::{FrameStat, LensError, SightingError, VisionResult};
 use serde::Serialize;
 use sim::score::quantile;
 use std::path::Path;
@@ -72,6 +72,32 @@ pub struct RadiusBin {
     pub recall: Option<f64>,
 }
 
+/// The hits whose true floor range lies in [lo, hi) metres: their error in the image and
+/// on the floor, against what the agent stated.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct RangeBin {
+    pub lo_m: f64,
+    pub hi_m: f64,
+    pub hits: usize,
+    /// Mean detected-minus-true centre, pixels (u, v), and mean radius error.
+    pub mean_pixel_px: Option<[f64; 2]>,
+    pub mean_radius_px: Option<f64>,
+    /// RMS of the centre's distance from the truth and of the radius error, pixels.
+    pub rms_pixel_px: Option<f64>,
+    pub rms_radius_px: Option<f64>,
+    /// Mean and RMS floor error along the view line (positive: too far), and RMS across.
+    pub mean_along_m: Option<f64>,
+    pub rms_along_m: Option<f64>,
+    pub rms_across_m: Option<f64>,
+    /// RMS of the stated standard deviations along and across.
+    pub stated_along_m: Option<f64>,
+    pub stated_across_m: Option<f64>,
+    /// Mean NEES (2 when the covariance is honest) and the share inside the stated 95 %
+    /// ellipse (NEES ≤ 5.99).
+    pub mean_nees: Option<f64>,
+    pub inside_95: Option<f64>,
+}
+
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Timing {
     pub frames: usize,
@@ -99,6 +125,7 @@ pub struct VisionReport {
     pub detection_overall: Detection,
     pub confidence: Vec<ConfidenceBin>,
     pub recall_by_radius: Vec<RadiusBin>,
+    pub accuracy_by_range: Vec<RangeBin>,
     pub timing: Timing,
     pub calibration: CalibrationCheck,
     pub targets: Vec<TargetCheck>,
@@ -106,6 +133,50 @@ pub struct VisionReport {
 
 const CONFIDENCE_EDGES: [f64; 6] = [0.0, 0.5, 0.8, 0.9, 0.95, 1.0001];
 const RADIUS_EDGES_PX: [f64; 8] = [4.0, 6.0, 8.0, 10.0, 14.0, 20.0, 30.0, 80.0];
+const RANGE_EDGES_M: [f64; 7] = [0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 10.0];
+/// χ² with two degrees of freedom at 95 %.
+const CHI2_2DOF_95: f64 = 5.991;
+
+fn mean(xs: impl Iterator<Item = f64>) -> Option<f64> {
+    let (n, sum) = xs.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));
+    (n > 0).then(|| sum / n as f64)
+}
+
+fn rms(xs: impl Iterator<Item = f64>) -> Option<f64> {
+    mean(xs.map(|x| x * x)).map(f64::sqrt)
+}
+
+fn range_bins(frames: &[&FrameStat]) -> Vec<RangeBin> {
+    RANGE_EDGES_M
+        .windows(2)
+        .map(|w| {
+            let e: Vec<SightingError> = frames
+                .iter()
+                .filter_map(|f| f.error)
+                .filter(|e| (w[0]..w[1]).contains(&e.range_m))
+                .collect();
+            let it = || e.iter();
+            RangeBin {
+                lo_m: w[0],
+                hi_m: w[1],
+                hits: e.len(),
+                mean_pixel_px: mean(it().map(|e| e.pixel_px[0]))
+                    .zip(mean(it().map(|e| e.pixel_px[1])))
+                    .map(|(u, v)| [u, v]),
+                mean_radius_px: mean(it().map(|e| e.radius_px)),
+                rms_pixel_px: rms(it().map(|e| e.pixel_px[0].hypot(e.pixel_px[1]))),
+                rms_radius_px: rms(it().map(|e| e.radius_px)),
+                mean_along_m: mean(it().map(|e| e.along_m)),
+                rms_along_m: rms(it().map(|e| e.along_m)),
+                rms_across_m: rms(it().map(|e| e.across_m)),
+                stated_along_m: rms(it().map(|e| e.sigma_along_m)),
+                stated_across_m: rms(it().map(|e| e.sigma_across_m)),
+                mean_nees: mean(it().map(|e| e.nees)),
+                inside_95: mean(it().map(|e| f64::from(u8::from(e.nees <= CHI2_2DOF_95)))),
+            }
+        })
+        .collect()
+}
 
 fn confidence_bins(frames: &[&FrameStat]) -> Vec<ConfidenceBin> {
     CONFIDENCE_EDGES
@@ -250,6 +321,7 @@ pub fn report(
         detection_overall: Detection::of(all.iter().copied()),
         confidence: confidence_bins(&all),
         recall_by_radius: radius_bins(&all),
+        accuracy_by_range: range_bins(&all),
         timing: Timing {
             frames: ms.len(),
             median_ms: quantile(&ms, 0.5),
@@ -352,6 +424,35 @@ pub fn extras_table(rep: &VisionReport) -> String {
     out
 }
 
+/// Sighting error and stated uncertainty by range.
+pub fn accuracy_table(rep: &VisionReport) -> String {
+    let mut out = String::from(
+        "| range m | hits | pixel bias u, v px | pixel RMS px | radius bias px | radius RMS px | along bias cm | along RMS cm | stated along cm | across RMS cm | stated across cm | mean NEES | inside 95 % |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let cm = |v: Option<f64>| num(v.map(|x| x * 100.0), 1);
+    for b in rep.accuracy_by_range.iter().filter(|b| b.hits > 0) {
+        out.push_str(&format!(
+            "| {:.1}–{:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            b.lo_m,
+            b.hi_m,
+            b.hits,
+            b.mean_pixel_px
+                .map_or("–".into(), |p| format!("{:+.2}, {:+.2}", p[0], p[1])),
+            num(b.rms_pixel_px, 2),
+            num(b.mean_radius_px, 2),
+            num(b.rms_radius_px, 2),
+            cm(b.mean_along_m),
+            cm(b.rms_along_m),
+            cm(b.stated_along_m),
+            cm(b.rms_across_m),
+            cm(b.stated_across_m),
+            num(b.mean_nees, 2),
+            pct(b.inside_95),
+        ));
+    }
+    out
+}
+
 /// The targets as a markdown table.
 pub fn targets_table(targets: &[TargetCheck]) -> String {
     let met = targets.iter().filter(|t| t.met).count();
@@ -374,9 +475,10 @@ pub fn targets_table(targets: &[TargetCheck]) -> String {
 /// Everything printed and written into the document, after the line naming the command.
 pub fn markdown(rep: &VisionReport) -> String {
     format!(
-        "{}\n{}\n{}\n{}",
+        "{}\n{}\n{}\n{}\n{}",
         metrics_table(rep),
         detection_table(rep),
+        accuracy_table(rep),
         extras_table(rep),
         targets_table(&rep.targets)
     )
