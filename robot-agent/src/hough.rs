@@ -54,8 +54,11 @@ const FIT_BAND_PX: f64 = 1.5;
 const FIT_ITERATIONS: usize = 6;
 
 /// Largest distance, in pixels, the circle fit may move a centre from its accumulator peak
-/// before the fit is rejected in favour of the peak.
+/// before the fit is rejected in favour of the peak; for big circles, this fraction of the
+/// radius if more. The peak of a big ball whose rim is uneven (a flattened highlight, a
+/// shadow's bulge) can lie 4–5 px from the centre the whole rim agrees on.
 const MAX_FIT_SHIFT_PX: f64 = 3.0;
+const MAX_FIT_SHIFT_FRACTION: f64 = 0.15;
 
 /// Candidate centres examined per requested circle.
 const CANDIDATES_PER_CIRCLE: usize = 4;
@@ -419,7 +422,10 @@ fn fit_circle(edges: &[Edge], centre: [f64; 2], config: &HoughConfig) -> Option<
         return None;
     }
     let (fitted_centre, fitted_radius) = refine(edges, centre, radius)
-        .filter(|(c, _)| (c[0] - centre[0]).hypot(c[1] - centre[1]) <= MAX_FIT_SHIFT_PX)
+        .filter(|(c, _)| {
+            (c[0] - centre[0]).hypot(c[1] - centre[1])
+                <= MAX_FIT_SHIFT_PX.max(MAX_FIT_SHIFT_FRACTION * radius)
+        })
         .unwrap_or((centre, radius));
     if !(fitted_radius >= config.r_min_px - 0.5 && fitted_radius <= config.r_max_px + 0.5) {
         return None;

@@ -250,3 +250,25 @@ proptest! {
         }
     }
 }
+
+/// A close ball's mask as the detector saw it in a rendered frame (its local view, 83×83,
+/// `#` set): a flattened highlight on top, a shadow's bulge below. The accumulator's peak
+/// lies a few pixels from the centre the rim agrees on; the fit must still be taken.
+#[test]
+fn a_close_ball_with_an_uneven_rim_is_found() {
+    let text = include_str!("../tests/data/close-ball-mask.txt");
+    let rows: Vec<&str> = text.lines().collect();
+    let (width, height) = (rows[0].len(), rows.len());
+    let mask: Vec<u8> = rows
+        .iter()
+        .flat_map(|row| row.bytes().map(|b| u8::from(b == b'#')))
+        .collect();
+    let circles = detect(&mask, width, height, &HoughConfig::default()).unwrap();
+    let c = circles.first().expect("no circle");
+    assert!(c.score > 0.75, "{c:?}");
+    assert!((c.radius_px - 30.0).abs() < 1.5, "{c:?}");
+    assert!(
+        (c.center_px[0] - 40.7).hypot(c.center_px[1] - 41.8) < 1.5,
+        "{c:?}"
+    );
+}

@@ -161,10 +161,13 @@ fn validate(
     }
     let circle = candidate.circle;
     let ball_radius_m = ctx.pitch.ball_radius_m;
-    let angular_radius_rad = candidate.angular_radius_rad.filter(|a| *a > 0.0).or_else(|| {
-        distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
-            .map(|d| (ball_radius_m / d).clamp(-1.0, 1.0).asin())
-    });
+    let angular_radius_rad = candidate
+        .angular_radius_rad
+        .filter(|a| *a > 0.0)
+        .or_else(|| {
+            distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
+                .map(|d| (ball_radius_m / d).clamp(-1.0, 1.0).asin())
+        });
     let ball = ImageBall {
         center_px: circle.center_px,
         radius_px: circle.radius_px,

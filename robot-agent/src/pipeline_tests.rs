@@ -12,22 +12,26 @@ fn head() -> HeadJoints {
     head_yawed(0.0)
 }
 
-/// A grey frame with an orange disc where a ball of `radius_m` at floor point `p` appears
-/// (drawn `scale` times too big to fake a wrong-sized object).
+/// A grey frame with the orange silhouette of a ball of `radius_m` at floor point `p`: the
+/// pixels whose ray passes within the ball's angular radius of its centre (times `scale`, to
+/// fake a wrong-sized object).
 fn frame(pose: &Pose2, p: [f64; 2], radius_m: f64, scale: f64) -> RgbImage {
     let lens = lens();
     let cam = camera_pose(pose, &head(), Camera::Left);
     let q = cam.point_in_camera(Vector3::new(p[0], p[1], radius_m));
+    let alpha = (radius_m / q.norm()).asin() * scale;
     let centre = lens.project([q.x, q.y, q.z]).unwrap();
-    let alpha = (radius_m / q.norm()).asin();
-    let side = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), alpha) * q;
-    let edge = lens.project([side.x, side.y, side.z]).unwrap();
-    let r = (edge[0] - centre[0]).hypot(edge[1] - centre[1]) * scale;
+    // Rays are only tested near the centre's pixel, for speed.
+    let reach = 3.0 * alpha * lens.intrinsics.fx_px + 4.0;
     let mut data = Vec::with_capacity(640 * 360 * 3);
     for y in 0..360 {
         for x in 0..640 {
-            let d = (f64::from(x) - centre[0]).hypot(f64::from(y) - centre[1]);
-            data.extend_from_slice(if d <= r {
+            let (u, v) = (f64::from(x), f64::from(y));
+            let inside = (u - centre[0]).hypot(v - centre[1]) <= reach
+                && lens
+                    .unproject([u, v])
+                    .is_some_and(|ray| Vector3::from(ray).angle(&q) <= alpha);
+            data.extend_from_slice(if inside {
                 &[235, 120, 30]
             } else {
                 &[120, 118, 112]

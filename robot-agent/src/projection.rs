@@ -240,7 +240,10 @@ fn inputs_covariance(
         }
         cov[(5 + r, 5 + r)] = noise.joint_sigma_rad[r].powi(2);
     }
-    if let Some(alpha) = ball.angular_radius_rad.filter(|a| *a > 0.0 && radius_px > 0.0) {
+    if let Some(alpha) = ball
+        .angular_radius_rad
+        .filter(|a| *a > 0.0 && radius_px > 0.0)
+    {
         // The angular radius is proportional to the image radius: same relative error.
         let sigma_r = noise.radius_sigma_px + noise.radius_sigma_per_radius * radius_px;
         cov[(ALPHA, ALPHA)] = (alpha * sigma_r / radius_px).powi(2);

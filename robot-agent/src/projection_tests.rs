@@ -182,9 +182,7 @@ fn gaussian_source() -> impl FnMut() -> f64 {
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
     };
-    move || {
-        (-2.0 * (1.0 - uniform()).ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos()
-    }
+    move || (-2.0 * (1.0 - uniform()).ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos()
 }
 
 /// Samples the inputs from their stated distributions and checks that the floor points'
@@ -295,7 +293,12 @@ fn apparent_size_narrows_the_range_far_away_and_resists_an_elevation_bias() {
         biased.pitch_rad -= 0.01;
         let err = |fp: &FloorPoint| (fp.position_m[0] - p[0]).hypot(fp.position_m[1] - p[1]);
         let (a, b) = (project(&sized, &biased), project(&ground_only, &biased));
-        assert!(err(&a) < 0.7 * err(&b), "at {fwd} m: {} vs {}", err(&a), err(&b));
+        assert!(
+            err(&a) < 0.7 * err(&b),
+            "at {fwd} m: {} vs {}",
+            err(&a),
+            err(&b)
+        );
     }
 }
 

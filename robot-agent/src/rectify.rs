@@ -108,19 +108,33 @@ impl LocalView {
         sum / 4.0
     }
 
-    /// The mask seen through the view (nearest pixel; off the frame is unset).
+    /// The mask seen through the view: set where the bilinear interpolation of the frame's
+    /// mask is at least one half (off the frame counts as unset). Nearest-pixel sampling
+    /// would turn a frame pixel's edge into a step of two or three view pixels where the view
+    /// magnifies, which bends the rim's normals and loosens its fit.
     pub fn sample_mask(&self, mask: &Mask) -> Result<Mask, ImageError> {
-        let (w, h) = (mask.width() as usize, mask.height() as usize);
+        let (w, h) = (mask.width() as isize, mask.height() as isize);
+        let src = mask.data();
+        let at = |x: isize, y: isize| -> f32 {
+            if x >= 0 && y >= 0 && x < w && y < h && src[(y * w + x) as usize] != 0 {
+                1.0
+            } else {
+                0.0
+            }
+        };
         let data = self
             .map
             .iter()
             .map(|&[u, v]| {
-                let (x, y) = ((u + 0.5).floor(), (v + 0.5).floor());
-                if x >= 0.0 && y >= 0.0 && (x as usize) < w && (y as usize) < h {
-                    mask.data()[y as usize * w + x as usize]
-                } else {
-                    0
+                if !(u.is_finite() && v.is_finite()) || u < -1.0 || v < -1.0 {
+                    return 0;
                 }
+                let (x0, y0) = (u.floor(), v.floor());
+                let (fx, fy) = (u - x0, v - y0);
+                let (x0, y0) = (x0 as isize, y0 as isize);
+                let top = at(x0, y0) + (at(x0 + 1, y0) - at(x0, y0)) * fx;
+                let bottom = at(x0, y0 + 1) + (at(x0 + 1, y0 + 1) - at(x0, y0 + 1)) * fx;
+                u8::from(top + (bottom - top) * fy >= 0.5)
             })
             .collect();
         Mask::new(self.side(), self.side(), data)
@@ -228,6 +242,39 @@ mod tests {
             !fits_frame,
             "the frame's ellipse fits a circle better than the view's circle"
         );
+    }
+
+    /// A close ball near the edge of the fisheye fills a view that magnifies the frame: its
+    /// rim must still be smooth enough for the circle fit.
+    #[test]
+    fn a_close_ball_at_the_edge_is_found_in_its_view() {
+        let model = fisheye();
+        let centre = Vector3::new(1.3, 0.5, 1.0).normalize();
+        let alpha: f64 = 0.1;
+        let mut mask = Mask::zeros(640, 360).unwrap();
+        for y in 0..360 {
+            for x in 0..640 {
+                if let Some(r) = model.unproject([f64::from(x), f64::from(y)])
+                    && Vector3::from(r).angle(&centre) <= alpha
+                {
+                    mask.set(x, y, true);
+                }
+            }
+        }
+        let centre_px = model.project(centre.into()).unwrap();
+        let view = LocalView::new(&model, centre_px, 40.0).unwrap();
+        let local = view.sample_mask(&mask).unwrap();
+        let circles = crate::hough::detect(
+            local.data(),
+            local.width() as usize,
+            local.height() as usize,
+            &Default::default(),
+        )
+        .unwrap();
+        let c = circles.first().expect("no circle in the view");
+        assert!(c.score > 0.75, "{c:?}");
+        let a = view.angular_radius_rad(c.center_px, c.radius_px);
+        assert!((a - alpha).abs() < 0.03 * alpha, "angular radius {a}");
     }
 
     #[test]

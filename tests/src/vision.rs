@@ -102,7 +102,9 @@ impl SightingError {
         ];
         let cov = nalgebra::Matrix2::from_row_slice(&obs.covariance_m2);
         let ev = nalgebra::Vector2::new(e[0], e[1]);
-        let nees = cov.try_inverse().map(|inv| (ev.transpose() * inv * ev)[0])?;
+        let nees = cov
+            .try_inverse()
+            .map(|inv| (ev.transpose() * inv * ev)[0])?;
         let var = |u: [f64; 2]| {
             let u = nalgebra::Vector2::new(u[0], u[1]);
             (u.transpose() * cov * u)[0].max(0.0).sqrt()

@@ -3,7 +3,7 @@
 //! measured by `evaluate --vision` and reported in docs/accuracy.md); a regression in the
 //! detector, the calibration or the projection fails here.
 
-use system_tests::vision::{VisionConfig, evaluate_vision_run};
+use system_tests::vision::{VisionConfig, evaluate_vision_run, perceive};
 use system_tests::vision_report::Detection;
 
 #[test]
@@ -36,4 +36,34 @@ fn one_rendered_seed_scenario_is_found_and_fused() {
     assert!(score >= 0.9, "fused position score {score:.3} < 0.9");
     let dir = fusion.direction_error_deg.expect("direction error");
     assert!(dir < 3.0, "direction error {dir:.2}° ≥ 3°");
+}
+
+#[test]
+fn a_ball_rolling_up_close_is_found_and_its_covariance_is_honest() {
+    // The ball rolls towards the robot and stops in front of it, over 30 px in the image
+    // near the fisheye's lower edge.
+    let sim_cfg = sim::SimConfig {
+        duration_s: Some(6.0),
+        ..sim::SimConfig::default()
+    };
+    let run = sim::run_scenario("seed-3-towards", 1, &sim_cfg).expect("scenario");
+    let (_, frames) = perceive(&run, &VisionConfig::default()).expect("perceive");
+    let close: Vec<_> = frames
+        .iter()
+        .filter(|f| f.visible && f.radius_px >= 25.0)
+        .collect();
+    assert!(close.len() > 40, "only {} close frames", close.len());
+    let found = close.iter().filter(|f| f.hit).count() as f64 / close.len() as f64;
+    assert!(found >= 0.9, "close-ball recall {found:.3} < 0.9");
+    // The stated covariance against the truth: mean NEES is 2 when honest.
+    let nees: Vec<f64> = frames
+        .iter()
+        .filter_map(|f| f.error.map(|e| e.nees))
+        .collect();
+    let mean = nees.iter().sum::<f64>() / nees.len() as f64;
+    assert!(
+        (0.5..4.0).contains(&mean),
+        "mean NEES {mean:.2} over {} hits",
+        nees.len()
+    );
 }
