@@ -55,6 +55,13 @@ pub struct TrackerConfig {
     pub near_robot_m: f64,
     /// After a takeover (a kick), extra process noise for this long.
     pub kick_boost_s: f64,
+    /// An update whose innovation's d² exceeds this is surprising (5.99: 5 % of consistent
+    /// observations)...
+    pub surprise_chi2: f64,
+    /// ... and this many surprising updates in a row mean the ball was kicked (by someone
+    /// no robot reports, or too softly for the gate to refuse): the track gets the same
+    /// extra process noise as after a takeover.
+    pub surprises_for_kick: usize,
     /// After a kick or a bounce the ball slides; do not learn the rolling deceleration then.
     pub learn_quiet_s: f64,
     /// Do not learn the deceleration below this speed (the stop dominates).
@@ -89,6 +96,8 @@ impl Default for TrackerConfig {
             outlier_rate_max: 0.1,
             near_robot_m: 0.4,
             kick_boost_s: 0.2,
+            surprise_chi2: 5.99,
+            surprises_for_kick: 3,
             learn_quiet_s: 0.4,
             learn_min_speed_mps: 0.12,
             learn_decel: true,
@@ -126,6 +135,8 @@ pub struct Track {
     boost_until_s: f64,
     /// A wall bounce was flown through and no observation has informed the restitution since.
     bounce_unlearned: bool,
+    /// Surprising updates in a row (see [`TrackerConfig::surprise_chi2`]).
+    surprises: usize,
 }
 
 impl Track {
@@ -174,6 +185,8 @@ pub struct Tracker {
     restitution_updates: u32,
     /// Observations dropped for lying beyond a wall, where no ball can be.
     outside_walls: u64,
+    /// Kicks inferred from surprising updates.
+    kicks_inferred: u64,
     /// Time of the newest applied observation.
     pub t_s: f64,
 }
@@ -198,6 +211,7 @@ impl Tracker {
             robots: Vec::new(),
             next_id: 1,
             decel_updates: 0,
+            kicks_inferred: 0,
             restitution_updates: 0,
             outside_walls: 0,
             t_s: f64::NEG_INFINITY,
@@ -241,6 +255,11 @@ impl Tracker {
         let sd = |k: usize| o.covariance_m2[(k, k)].max(0.0).sqrt();
         let out_by = [x - b.x_max, b.x_min - x, y - b.y_max, b.y_min - y];
         (0..4).any(|i| b.walls[i] && out_by[i] > (3.0 * sd(i / 2)).max(0.05))
+    }
+
+    /// Kicks inferred from runs of surprising updates.
+    pub fn kicks_inferred(&self) -> u64 {
+        self.kicks_inferred
     }
 
     /// Observations / bounces that informed the learned deceleration / restitution.
@@ -324,13 +343,16 @@ impl Tracker {
                 let cost = |inn: &Innovation| inn.d2 + inn.s.determinant().max(1e-300).ln();
                 cost(&a.1).total_cmp(&cost(&b.1))
             })
-            .map(|(i, _)| i);
+            .map(|(i, inn)| (i, inn.d2));
 
         self.learn_trust(ri, o);
-        self.learn_outlier_rate(ri, o, best.is_some() && best == self.main);
+        self.learn_outlier_rate(ri, o, best.is_some_and(|(i, _)| Some(i) == self.main));
 
         match best {
-            Some(i) => self.update_track(i, ri, o, &r_eff),
+            Some((i, d2)) => {
+                self.update_track(i, ri, o, &r_eff);
+                self.note_surprise(i, d2, o.t_s);
+            }
             None => self.spawn(ri, o, &r_eff),
         }
         self.promote(o.t_s);
@@ -397,6 +419,24 @@ impl Tracker {
         }
     }
 
+    /// Counts surprising updates in a row; enough of them and the track is treated as just
+    /// kicked: its velocity is free to change for a moment.
+    fn note_surprise(&mut self, i: usize, d2: f64, t_s: f64) {
+        let cfg = &self.cfg;
+        let track = &mut self.tracks[i];
+        if d2 <= cfg.surprise_chi2 {
+            track.surprises = 0;
+            return;
+        }
+        track.surprises += 1;
+        if track.surprises >= cfg.surprises_for_kick.max(1) {
+            track.surprises = 0;
+            track.boost_until_s = track.boost_until_s.max(t_s + cfg.kick_boost_s);
+            track.quiet_until_s = track.quiet_until_s.max(t_s + cfg.learn_quiet_s);
+            self.kicks_inferred += 1;
+        }
+    }
+
     fn spawn(&mut self, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
         let cfg = &self.cfg;
         let params = match self.main() {
@@ -427,6 +467,7 @@ impl Tracker {
             hits: VecDeque::from([(o.t_s, ri)]),
             quiet_until_s: o.t_s + cfg.learn_quiet_s,
             bounce_unlearned: false,
+            surprises: 0,
             // A new hypothesis is often a ball just kicked and still sliding.
             boost_until_s: o.t_s + cfg.kick_boost_s,
         };
