@@ -121,6 +121,8 @@ pub struct Sighting {
 pub struct FrameResult {
     pub sighting: Option<Sighting>,
     pub rejected: Vec<(Circle, Rejection)>,
+    /// Every candidate the classifier scored, with its probability, most probable first.
+    pub scored: Vec<(Circle, f64)>,
 }
 
 /// Detection, projection and validation of one camera frame.
@@ -137,6 +139,9 @@ pub fn process_frame(
     let candidates = detector.detect(image, Some(ctx.model), classifier, clock)?;
     let mut result = FrameResult::default();
     for candidate in candidates {
+        result
+            .scored
+            .push((candidate.circle, candidate.probability));
         match validate(candidate, noise, validation, ctx) {
             Ok(sighting) if result.sighting.is_none() => result.sighting = Some(sighting),
             // Candidates come most probable first: later valid ones are runners-up.

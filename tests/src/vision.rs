@@ -47,7 +47,7 @@ impl Default for VisionConfig {
 /// `robot-agent run`: a ball is visible when it is in the frame, at least half of it shows,
 /// its image radius is at least 4 px and its centre lies on the image; an observation is a
 /// hit when its pixel lies within max(radius, 4) px of the true centre.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FrameStat {
     pub visible: bool,
     pub hit: bool,
@@ -61,6 +61,9 @@ pub struct FrameStat {
     pub pipeline_ms: f64,
     /// How far a hit is from the truth, in the image and on the floor.
     pub error: Option<SightingError>,
+    /// Every candidate the classifier scored: its probability, and whether it was the ball
+    /// (within max(radius, 4) px of the true centre).
+    pub candidates: Vec<(f64, bool)>,
 }
 
 /// A hit's error against the renderer's truth. The floor error is split along and across
@@ -147,6 +150,14 @@ pub struct VisionResult {
     pub observations: usize,
 }
 
+/// Whether an agent pixel lies on the true ball.
+fn on_ball(truth: &BallTruth, u_px: f64, v_px: f64) -> bool {
+    truth.center_px.is_some_and(|c| {
+        let (u, v) = (u_px + SIM_PIXEL_OFFSET, v_px + SIM_PIXEL_OFFSET);
+        (u - c[0]).hypot(v - c[1]) <= truth.radius_px.max(4.0)
+    })
+}
+
 fn judge(
     truth: Option<&BallTruth>,
     obs: Option<&Observation>,
@@ -163,12 +174,9 @@ fn judge(
         && t.visible_fraction >= 0.5
         && t.radius_px >= 4.0
         && t.center_px.is_some_and(on_image);
-    let hit = obs.and_then(|o| o.pixel).is_some_and(|p| {
-        t.center_px.is_some_and(|c| {
-            let (u, v) = (p.u_px + SIM_PIXEL_OFFSET, p.v_px + SIM_PIXEL_OFFSET);
-            (u - c[0]).hypot(v - c[1]) <= t.radius_px.max(4.0)
-        })
-    });
+    let hit = obs
+        .and_then(|o| o.pixel)
+        .is_some_and(|p| on_ball(t, p.u_px, p.v_px));
     let radius = if t.in_frame { t.radius_px } else { 0.0 };
     (visible, hit, radius)
 }
@@ -237,6 +245,17 @@ pub fn perceive(
                         .zip(outcome.observation.as_ref())
                         .filter(|_| hit)
                         .and_then(|(t, o)| SightingError::of(t, o)),
+                    candidates: outcome
+                        .result
+                        .scored
+                        .iter()
+                        .map(|(c, p)| {
+                            let ball = truth
+                                .as_ref()
+                                .is_some_and(|t| on_ball(t, c.center_px[0], c.center_px[1]));
+                            (*p, ball)
+                        })
+                        .collect(),
                 });
                 if let Some(obs) = outcome.observation {
                     deliveries.push(Delivery {

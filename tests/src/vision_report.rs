@@ -123,7 +123,12 @@ pub struct VisionReport {
     pub fusion: Report,
     pub detection: Vec<ScenarioDetection>,
     pub detection_overall: Detection,
+    /// Published observations: confidence against how often they were the ball.
     pub confidence: Vec<ConfidenceBin>,
+    /// Every candidate the classifier scored, published or not (the bins' `observations`
+    /// count candidates), and the Brier score of those probabilities.
+    pub candidate_calibration: Vec<ConfidenceBin>,
+    pub candidate_brier: Option<f64>,
     pub recall_by_radius: Vec<RadiusBin>,
     pub accuracy_by_range: Vec<RangeBin>,
     pub timing: Timing,
@@ -132,6 +137,7 @@ pub struct VisionReport {
 }
 
 const CONFIDENCE_EDGES: [f64; 6] = [0.0, 0.5, 0.8, 0.9, 0.95, 1.0001];
+const CANDIDATE_EDGES: [f64; 7] = [0.0, 0.01, 0.1, 0.5, 0.9, 0.99, 1.0001];
 const RADIUS_EDGES_PX: [f64; 8] = [4.0, 6.0, 8.0, 10.0, 14.0, 20.0, 30.0, 80.0];
 const RANGE_EDGES_M: [f64; 7] = [0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 10.0];
 /// χ² with two degrees of freedom at 95 %.
@@ -178,13 +184,13 @@ fn range_bins(frames: &[&FrameStat]) -> Vec<RangeBin> {
         .collect()
 }
 
-fn confidence_bins(frames: &[&FrameStat]) -> Vec<ConfidenceBin> {
-    CONFIDENCE_EDGES
+/// Probability against how often it was right, over (probability, was the ball) pairs.
+fn calibration_bins(pairs: &[(f64, bool)], edges: &[f64]) -> Vec<ConfidenceBin> {
+    edges
         .windows(2)
         .map(|w| {
-            let inside: Vec<(f64, bool)> = frames
+            let inside: Vec<&(f64, bool)> = pairs
                 .iter()
-                .filter_map(|f| Some((f.confidence?, f.hit)))
                 .filter(|(c, _)| (w[0]..w[1]).contains(c))
                 .collect();
             let n = inside.len();
@@ -262,6 +268,10 @@ pub fn report(
         })
         .collect();
     let ms: Vec<f64> = all.iter().map(|f| f.pipeline_ms).collect();
+    let candidates: Vec<(f64, bool)> = all
+        .iter()
+        .flat_map(|f| f.candidates.iter().copied())
+        .collect();
     let mut targets = Vec::new();
     for s in scenarios {
         let row = fusion
@@ -319,7 +329,18 @@ pub fn report(
         fusion,
         detection,
         detection_overall: Detection::of(all.iter().copied()),
-        confidence: confidence_bins(&all),
+        confidence: calibration_bins(
+            &all.iter()
+                .filter_map(|f| Some((f.confidence?, f.hit)))
+                .collect::<Vec<_>>(),
+            &CONFIDENCE_EDGES,
+        ),
+        candidate_calibration: calibration_bins(&candidates, &CANDIDATE_EDGES),
+        candidate_brier: mean(
+            candidates
+                .iter()
+                .map(|(p, ball)| (p - f64::from(u8::from(*ball))).powi(2)),
+        ),
         recall_by_radius: radius_bins(&all),
         accuracy_by_range: range_bins(&all),
         timing: Timing {
@@ -395,6 +416,21 @@ pub fn extras_table(rep: &VisionReport) -> String {
         "| confidence | observations | mean confidence | was the ball % |\n|---|---|---|---|\n",
     );
     for b in &rep.confidence {
+        out.push_str(&format!(
+            "| {:.2}–{:.2} | {} | {} | {} |\n",
+            b.lo,
+            b.hi,
+            b.observations,
+            num(b.mean_confidence, 3),
+            pct(b.ball_fraction)
+        ));
+    }
+    out.push_str(&format!(
+        "\nEvery candidate the classifier scored (published or not; Brier score {}):\n\n\
+         | probability | candidates | mean probability | was the ball % |\n|---|---|---|---|\n",
+        num(rep.candidate_brier, 4)
+    ));
+    for b in &rep.candidate_calibration {
         out.push_str(&format!(
             "| {:.2}–{:.2} | {} | {} | {} |\n",
             b.lo,
