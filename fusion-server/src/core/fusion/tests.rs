@@ -220,7 +220,7 @@ fn replay_unreported_kick(surprises_for_kick: usize) -> (f64, u64) {
     let mut f = Fusion::new(cfg);
     let (mut sum_m, mut n) = (0.0, 0);
     for line in UNREPORTED_KICK.lines() {
-        let r: Recorded = serde_json::from_str(line).unwrap();
+        let r: Recorded = serde_json::from_str(line).expect("recorded observation");
         ingest(&mut f, &r.obs);
         if (0.6..=1.3).contains(&r.t_s) {
             let st = f.ball_state(r.obs.stamp).expect("state");
