@@ -23,9 +23,12 @@ pub fn classifier_model() -> Result<Model, SvmError> {
     Model::from_json(CLASSIFIER_JSON)
 }
 
-/// The shipped classifier, checking colours against the detector's widest window.
+/// The shipped classifier, checking colours against the detector's widest window (and
+/// its patch colour, when patterned balls are looked for) with the detector's colour check.
 pub fn classifier(detector: &DetectorConfig) -> Result<BallClassifier, SvmError> {
-    Ok(BallClassifier::new(classifier_model()?, detector.limits))
+    let patches = detector.pattern.enabled.then_some(detector.pattern.white);
+    Ok(BallClassifier::new(classifier_model()?, detector.limits)
+        .with_colour_check(detector.colour_check, patches))
 }
 
 #[cfg(test)]

@@ -5,7 +5,8 @@
 //! mostly not the ball's colour (a white robot part under warm light that only grazes the
 //! colour window, a stripe across a wall marking). The survivors' 32×32 patches go through
 //! HOG and the SVM, whose Platt-calibrated output is the probability that the candidate is
-//! the ball.
+//! the ball. With a patterned ball's patch colour, the colour check accepts the ball's
+//! colour and the patches' together.
 
 use crate::detect::CandidateClassifier;
 use crate::hog::hog;
@@ -24,15 +25,32 @@ pub struct BallClassifier {
     colour: ColourCheckConfig,
     /// The widest colour window the ball may take (the detector's adaptation limits).
     colours: HsvThresholds,
+    /// A patterned ball's patch colour, accepted beside the ball's.
+    patches: Option<HsvThresholds>,
 }
 
 impl BallClassifier {
+    /// The default colour check, for a plain ball.
     pub fn new(model: Model, colours: HsvThresholds) -> Self {
         BallClassifier {
             model,
             patch: PatchConfig::default(),
             colour: ColourCheckConfig::default(),
             colours,
+            patches: None,
+        }
+    }
+
+    /// The same classifier with the given colour check and patch colour.
+    pub fn with_colour_check(
+        self,
+        colour: ColourCheckConfig,
+        patches: Option<HsvThresholds>,
+    ) -> Self {
+        BallClassifier {
+            colour,
+            patches,
+            ..self
         }
     }
 
@@ -50,6 +68,7 @@ impl CandidateClassifier for BallClassifier {
             circle.center_px,
             circle.radius_px,
             &self.colours,
+            self.patches.as_ref(),
             &self.colour,
         )
         .ok()?;

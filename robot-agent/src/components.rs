@@ -1,4 +1,9 @@
 //! Connected components of a mask, 8-neighbour, by two-pass labelling with union–find.
+//!
+//! [`joined_components`] widens the neighbourhood: pixels up to `reach_px` apart (in both
+//! directions) belong to one component, so fragments of one object separated by gaps of up
+//! to `reach_px − 1` pixels (a patterned ball's ball-coloured parts around its patches)
+//! come out as one component. Reach 1 is plain 8-connectivity.
 
 use crate::image::Mask;
 
@@ -58,10 +63,22 @@ struct Stats {
 /// at most `max_count` of them. Equal areas are ordered by their topmost-then-leftmost
 /// pixel, so the result is deterministic.
 pub fn largest_components(mask: &Mask, min_area_px: usize, max_count: usize) -> Vec<Component> {
+    joined_components(mask, 1, min_area_px, max_count)
+}
+
+/// As [`largest_components`], with pixels up to `reach_px` apart along both axes joined
+/// (reach 0 is taken as 1, plain 8-connectivity).
+pub fn joined_components(
+    mask: &Mask,
+    reach_px: u32,
+    min_area_px: usize,
+    max_count: usize,
+) -> Vec<Component> {
     let (w, h) = (mask.width() as usize, mask.height() as usize);
     if max_count == 0 || w == 0 || h == 0 {
         return Vec::new();
     }
+    let reach = (reach_px as usize).clamp(1, w.max(h));
     let data = mask.data();
     // Label 0 is the background; labels are assigned in raster order.
     let mut labels = vec![0u32; w * h];
@@ -73,27 +90,25 @@ pub fn largest_components(mask: &Mask, min_area_px: usize, max_count: usize) -> 
                 continue;
             }
             let mut label = 0u32;
-            let neighbour = |j: usize, label: &mut u32, parent: &mut Vec<u32>| {
+            let mut neighbour = |j: usize| {
                 let n = labels[j];
                 if n != 0 {
-                    *label = if *label == 0 {
+                    label = if label == 0 {
                         n
                     } else {
-                        union(parent, *label, n)
+                        union(&mut parent, label, n)
                     };
                 }
             };
-            if x > 0 {
-                neighbour(i - 1, &mut label, &mut parent);
+            // Already labelled pixels within reach: to the left on this row, and the rows
+            // above.
+            let (x_lo, x_hi) = (x.saturating_sub(reach), (x + reach).min(w - 1));
+            for j in y * w + x_lo..i {
+                neighbour(j);
             }
-            if y > 0 {
-                let above = i - w;
-                if x > 0 {
-                    neighbour(above - 1, &mut label, &mut parent);
-                }
-                neighbour(above, &mut label, &mut parent);
-                if x + 1 < w {
-                    neighbour(above + 1, &mut label, &mut parent);
+            for yy in y.saturating_sub(reach)..y {
+                for j in yy * w + x_lo..=yy * w + x_hi {
+                    neighbour(j);
                 }
             }
             if label == 0 {

@@ -54,3 +54,37 @@ fn components_join_diagonals_and_merge_labels() {
     // everything is one component.
     assert_eq!(areas, vec![m.count()]);
 }
+
+#[test]
+fn fragments_within_reach_join_into_one_component() {
+    // Three pieces with gaps of 2 and 4 pixels between them.
+    let mut m = Mask::zeros(40, 10).unwrap();
+    for y in 2..6 {
+        for x in (0..4).chain(6..10).chain(14..18) {
+            m.set(x, y, true);
+        }
+    }
+    let areas = |reach: u32| -> Vec<usize> {
+        joined_components(&m, reach, 1, 10)
+            .iter()
+            .map(|c| c.area_px)
+            .collect()
+    };
+    assert_eq!(areas(1), vec![16, 16, 16]);
+    assert_eq!(largest_components(&m, 1, 10).len(), 3);
+    assert_eq!(areas(2), vec![16, 16, 16], "a 2-pixel gap needs reach 3");
+    assert_eq!(areas(3), vec![32, 16]);
+    assert_eq!(areas(5), vec![48]);
+    let joined = joined_components(&m, 5, 1, 10)[0];
+    assert_eq!(
+        joined.bbox,
+        BoundingBox {
+            x_min: 0,
+            y_min: 2,
+            x_max: 17,
+            y_max: 5
+        }
+    );
+    // Reach 0 is taken as plain 8-connectivity.
+    assert_eq!(areas(0), areas(1));
+}

@@ -5,12 +5,13 @@
 //!
 //! 1. `mask`: the HSV colour mask of the whole frame through the lookup table.
 //! 2. `cleanup`: an opening removes speckle.
-//! 3. `blobs`: connected components, largest first; each one's box, grown by a margin, is a
-//!    region of interest.
+//! 3. `blobs`: connected components, largest first (with a patterned ball's fragments
+//!    joined); each one's box, grown by a margin, is a region of interest.
 //! 4. `hough`: each region is resampled as a local perspective view of the calibrated
-//!    camera (so that a ball is round even at the edge of the fisheye), a closing fills
-//!    the holes that a patterned ball's white patches leave, then the circular Hough
-//!    transform finds circles.
+//!    camera (so that a ball is round even at the edge of the fisheye), a closing smooths
+//!    its mask, then the circular Hough transform finds circles. A blob sparse in its box
+//!    may be a patterned ball: its two-colour mask, where the patches join the ball's
+//!    colour and enclosed holes are filled ([`crate::two_colour`]), is searched as well.
 //! 5. `classify`: each circle goes through the caller's [`CandidateClassifier`] (the HOG +
 //!    SVM filter and the dominant-colour check in the agent) on the same local view, which
 //!    gives the probability that it is the ball.
@@ -19,12 +20,14 @@
 //! (see [`crate::pipeline`]).
 
 use crate::camera::CameraModel;
-use crate::components::largest_components;
+use crate::components::joined_components;
 use crate::hough::{Circle, HoughConfig, HoughError};
 use crate::hsv::{HsvError, HsvThresholds, MaskLut};
 use crate::image::{ImageError, Mask, RgbImage};
+use crate::kmeans::{ColourCheckConfig, ColourError};
 use crate::morphology::{close, open};
 use crate::rectify::LocalView;
+use crate::two_colour::{Hull, PatternConfig, PatternError, region_mask};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -50,6 +53,10 @@ pub struct DetectorConfig {
     pub roi_margin_px: u32,
     /// The circular Hough transform's settings.
     pub hough: HoughConfig,
+    /// A patterned ball (the ball's colour with white patches): the two-colour mask.
+    pub pattern: PatternConfig,
+    /// The classifier's dominant-colour check.
+    pub colour_check: ColourCheckConfig,
 }
 
 impl Default for DetectorConfig {
@@ -79,6 +86,8 @@ impl Default for DetectorConfig {
             max_blobs: 6,
             roi_margin_px: 4,
             hough: HoughConfig::default(),
+            pattern: PatternConfig::default(),
+            colour_check: ColourCheckConfig::default(),
         }
     }
 }
@@ -92,6 +101,10 @@ pub enum DetectError {
     Hough(#[from] HoughError),
     #[error(transparent)]
     Image(#[from] ImageError),
+    #[error(transparent)]
+    Pattern(#[from] PatternError),
+    #[error(transparent)]
+    Colour(#[from] ColourError),
     #[error("adapt_rate {0} is outside [0, 1]")]
     BadRate(f64),
 }
@@ -169,6 +182,8 @@ pub struct Detector {
     config: DetectorConfig,
     thresholds: HsvThresholds,
     lut: MaskLut,
+    /// The patches' colour, when patterned balls are looked for.
+    white_lut: Option<MaskLut>,
 }
 
 impl Detector {
@@ -176,6 +191,8 @@ impl Detector {
         config.thresholds.check()?;
         config.limits.check()?;
         config.hough.check()?;
+        config.pattern.check()?;
+        config.colour_check.check()?;
         if !(0.0..=1.0).contains(&config.adapt_rate) {
             return Err(DetectError::BadRate(config.adapt_rate));
         }
@@ -183,6 +200,11 @@ impl Detector {
             config,
             thresholds: config.thresholds,
             lut: MaskLut::new(&config.thresholds)?,
+            white_lut: if config.pattern.enabled {
+                Some(MaskLut::new(&config.pattern.white)?)
+            } else {
+                None
+            },
         })
     }
 
@@ -195,19 +217,43 @@ impl Detector {
         &self.thresholds
     }
 
-    /// Closes a region's mask and finds its circles.
-    fn circles(&self, roi: Mask) -> Result<Vec<Circle>, DetectError> {
-        let roi = if self.config.close_radius_px > 0 {
-            close(&roi, self.config.close_radius_px)
-        } else {
-            roi
+    /// The circles of a region's ball-colour mask, closed; for a possibly patterned ball
+    /// (`patterned`: the region's patch-colour mask and the blob's hull in the region's
+    /// pixels) also those of its two-colour mask.
+    fn circles(
+        &self,
+        roi: Mask,
+        patterned: Option<(Mask, Hull)>,
+    ) -> Result<Vec<Circle>, DetectError> {
+        let hough = |m: &Mask| {
+            crate::hough::detect(
+                m.data(),
+                m.width() as usize,
+                m.height() as usize,
+                &self.config.hough,
+            )
         };
-        Ok(crate::hough::detect(
-            roi.data(),
-            roi.width() as usize,
-            roi.height() as usize,
-            &self.config.hough,
-        )?)
+        let closed = close(&roi, self.config.close_radius_px);
+        let mut circles = hough(&closed)?;
+        if let Some((white, hull)) = patterned {
+            let region = region_mask(
+                &roi,
+                &white,
+                &hull,
+                self.config.close_radius_px,
+                &self.config.pattern,
+            );
+            if region != closed {
+                // A circle the ball colour alone gave is kept as it was.
+                let cfg = &self.config.hough;
+                let new: Vec<Circle> = hough(&region)?
+                    .into_iter()
+                    .filter(|p| !circles.iter().any(|c| same_circle(c, p, cfg)))
+                    .collect();
+                circles.extend(new);
+            }
+        }
+        Ok(circles)
     }
 
     /// The circles of a frame before classification.
@@ -231,29 +277,67 @@ impl Detector {
             mask
         };
         clock.mark("cleanup");
-        let blobs = largest_components(&mask, cfg.min_blob_area_px, cfg.max_blobs);
+        let reach_px = if cfg.pattern.enabled {
+            cfg.pattern.join_reach_px
+        } else {
+            1
+        };
+        let blobs = joined_components(&mask, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
         clock.mark("blobs");
         // Circles per blob, in the blob's local view (with a model) or in the frame.
         let mut found: Vec<(Option<LocalView>, Vec<Circle>)> = Vec::new();
         for blob in &blobs {
             let m = cfg.roi_margin_px + cfg.close_radius_px;
+            let hull = cfg.pattern.patterned_hull(blob);
+            let growth = if hull.is_some() {
+                cfg.pattern.view_growth
+            } else {
+                0.0
+            };
+            let b = &blob.bbox;
+            let size = (b.x_max - b.x_min).max(b.y_max - b.y_min) + 1;
             match model {
                 Some(model) => {
-                    let b = &blob.bbox;
-                    let half = 0.5 * f64::from((b.x_max - b.x_min).max(b.y_max - b.y_min) + 1)
-                        + f64::from(m);
+                    let half = 0.5 * f64::from(size) * (1.0 + growth) + f64::from(m);
                     let Some(view) = LocalView::new(model, blob.centroid_px, half) else {
                         continue;
                     };
-                    let circles = self.circles(view.sample_mask(&mask)?)?;
+                    // The view looks at the blob's centroid through its centre pixel.
+                    let centre = f64::from(view.side() / 2);
+                    let patterned = match (hull, &self.white_lut) {
+                        (Some(hull), Some(lut)) => Some((
+                            view.sample_lut(image, lut)?,
+                            Hull {
+                                centre_px: [centre, centre],
+                                ..hull
+                            },
+                        )),
+                        _ => None,
+                    };
+                    let circles = self.circles(view.sample_mask(&mask)?, patterned)?;
                     found.push((Some(view), circles));
                 }
                 None => {
-                    let x0 = blob.bbox.x_min.saturating_sub(m);
-                    let y0 = blob.bbox.y_min.saturating_sub(m);
-                    let x1 = (blob.bbox.x_max + m).min(mask.width() - 1);
-                    let y1 = (blob.bbox.y_max + m).min(mask.height() - 1);
-                    let roi = crop(&mask, x0, y0, x1 - x0 + 1, y1 - y0 + 1)?;
+                    let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
+                    let x0 = b.x_min.saturating_sub(m);
+                    let y0 = b.y_min.saturating_sub(m);
+                    let x1 = (b.x_max + m).min(mask.width() - 1);
+                    let y1 = (b.y_max + m).min(mask.height() - 1);
+                    let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
+                    let roi = crop(&mask, x0, y0, w, h)?;
+                    let patterned = match (hull, &self.white_lut) {
+                        (Some(hull), Some(lut)) => Some((
+                            crop_lut(image, lut, x0, y0, w, h)?,
+                            Hull {
+                                centre_px: [
+                                    hull.centre_px[0] - f64::from(x0),
+                                    hull.centre_px[1] - f64::from(y0),
+                                ],
+                                ..hull
+                            },
+                        )),
+                        _ => None,
+                    };
                     let shift = |c: Circle| Circle {
                         center_px: [
                             c.center_px[0] + f64::from(x0),
@@ -261,7 +345,8 @@ impl Detector {
                         ],
                         ..c
                     };
-                    found.push((None, self.circles(roi)?.into_iter().map(shift).collect()));
+                    let circles = self.circles(roi, patterned)?;
+                    found.push((None, circles.into_iter().map(shift).collect()));
                 }
             }
         }
@@ -333,7 +418,12 @@ impl Detector {
     /// window slides, the lower saturation and value bounds may drop below the configured
     /// ones (never below the limits) and never rise above them.
     pub fn adapt(&mut self, image: &RgbImage, ball: &Circle) -> Result<(), DetectError> {
-        let samples = disc_hsv(image, ball, 0.7);
+        let mut samples = disc_hsv(image, ball, 0.7);
+        if self.config.pattern.enabled {
+            // A patterned ball's patches say nothing about the light on the ball's colour.
+            let limits = self.config.limits;
+            samples.retain(|&(h, s, v)| limits.contains(h, s, v));
+        }
         let mut next = crate::hsv::adapt(
             &self.thresholds,
             &samples,
@@ -364,6 +454,33 @@ fn crop(mask: &Mask, x0: u32, y0: u32, w: u32, h: u32) -> Result<Mask, ImageErro
     for y in y0..y0 + h {
         let start = y as usize * stride + x0 as usize;
         data.extend_from_slice(&mask.data()[start..start + w as usize]);
+    }
+    Mask::new(w, h, data)
+}
+
+/// Whether two circles are one: centres closer than the Hough transform's smallest
+/// distance and radii within a fifth of each other.
+fn same_circle(a: &Circle, b: &Circle, hough: &HoughConfig) -> bool {
+    let d = (a.center_px[0] - b.center_px[0]).hypot(a.center_px[1] - b.center_px[1]);
+    d < hough.min_center_distance_px
+        && (a.radius_px - b.radius_px).abs() <= 0.2 * a.radius_px.max(b.radius_px)
+}
+
+/// A window of a frame's colour mask through `lut`.
+fn crop_lut(
+    image: &RgbImage,
+    lut: &MaskLut,
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+) -> Result<Mask, ImageError> {
+    let mut data = Vec::with_capacity(w as usize * h as usize);
+    for y in y0..y0 + h {
+        for x in x0..x0 + w {
+            let [r, g, b] = image.pixel(x, y).unwrap_or([0; 3]);
+            data.push(u8::from(lut.accepts(r, g, b)));
+        }
     }
     Mask::new(w, h, data)
 }

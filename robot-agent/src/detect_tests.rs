@@ -186,3 +186,91 @@ fn bad_settings_are_refused() {
     cfg.hough.r_min_px = f64::NAN;
     assert!(Detector::new(cfg).is_err());
 }
+
+/// Frames of the simulator's `seed-1-across` through miro1's cameras, with the ball's
+/// centre and radius where it is in view.
+fn rendered_frames(patterned: bool, captures: usize) -> Vec<(RgbImage, [f64; 2], f64)> {
+    use sim::camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
+    let run = sim::run_scenario("seed-1-across", 1, &sim::SimConfig::default()).unwrap();
+    let rig = sim::render::CameraRig::new(sim::lens::LensModel::miro());
+    let mut cfg = CameraWorldConfig::default();
+    if patterned {
+        cfg.ball_look = patterned_ball();
+    }
+    let world = CameraWorld::new(&run, &rig, cfg, 1);
+    let times: Vec<f64> = world.frame_times().collect();
+    let step = (times.len() / captures).max(1);
+    let mut out = Vec::new();
+    for (k, &t) in times.iter().enumerate().step_by(step).take(captures) {
+        for (frame, truth) in world.capture("miro1", t, k as u64).frames {
+            let Some(t) = truth.filter(|t| t.in_frame && t.visible_fraction > 0.9) else {
+                continue;
+            };
+            let Some(c) = t.center_px else { continue };
+            let image = RgbImage::new(frame.width, frame.height, frame.rgb).unwrap();
+            out.push((image, c, t.radius_px));
+        }
+    }
+    out
+}
+
+/// How many frames' most probable candidate is the ball.
+fn found(frames: &[(RgbImage, [f64; 2], f64)], config: DetectorConfig) -> usize {
+    let model = crate::builtin::sim_calibration().unwrap().model;
+    let detector = Detector::new(config).unwrap();
+    let classifier = crate::builtin::classifier(&config).unwrap();
+    frames
+        .iter()
+        .filter(|(image, c, r)| {
+            let found = detector
+                .detect(image, Some(&model), &classifier, &mut NoClock)
+                .unwrap();
+            found.first().is_some_and(|b| {
+                let p = b.circle.center_px;
+                b.probability >= 0.5 && (p[0] - c[0]).hypot(p[1] - c[1]) < 0.3 * r.max(4.0)
+            })
+        })
+        .count()
+}
+
+#[test]
+fn a_rendered_patterned_ball_is_found_as_the_plain_one_is() {
+    let patterned = rendered_frames(true, 6);
+    assert!(patterned.len() >= 10, "{} frames", patterned.len());
+    let n = patterned.len();
+    let config = DetectorConfig::default();
+    assert!(found(&patterned, config) >= n - 1, "{n} frames");
+    // Without the two-colour mask it is not found.
+    let mut plain_only = config;
+    plain_only.pattern.enabled = false;
+    assert!(found(&patterned, plain_only) <= n / 4);
+    // The plain ball is found as it always was.
+    let plain = rendered_frames(false, 6);
+    assert_eq!(found(&plain, config), plain.len());
+}
+
+#[test]
+fn white_alone_never_makes_a_candidate() {
+    // White discs (a robot's head), grey bodies and a white wall marking, no ball colour.
+    let mut image = background();
+    for (c, r, rgb) in [
+        ([100.0, 60.0], 16.0, [235, 235, 230]),
+        ([220.0, 120.0], 22.0, [130, 130, 135]),
+        ([40.0, 140.0], 9.0, [250, 250, 250]),
+    ] {
+        for y in 0..H {
+            for x in 0..W {
+                if (f64::from(x) - c[0]).hypot(f64::from(y) - c[1]) < r {
+                    image.set_pixel(x, y, rgb);
+                }
+            }
+        }
+    }
+    draw_rect(&mut image, 150, 20, 80, 6, [240, 240, 240]);
+    let detector = Detector::new(DetectorConfig::default()).unwrap();
+    let proposals = detector.propose(&image, None, &mut NoClock).unwrap();
+    assert!(proposals.items.is_empty(), "{:?}", proposals.items);
+    let lens = crate::test_fixtures::miro_lens();
+    let proposals = detector.propose(&image, Some(&lens), &mut NoClock).unwrap();
+    assert!(proposals.items.is_empty(), "{:?}", proposals.items);
+}

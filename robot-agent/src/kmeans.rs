@@ -9,6 +9,11 @@
 //! it holds a configurable share of the pixels, rejects shapes where the ball colour is a
 //! minority.
 //!
+//! A patterned ball (the ball's colour with white patches) is accepted too when the patches'
+//! colour window is given: the clusters whose mean is a ball colour must then hold
+//! `min_ball_share_with_patches` of the pixels, and together with the clusters whose mean
+//! is the patches' colour `min_share`. White alone never passes.
+//!
 //! Only the inner part of the circle is sampled (`radius_fraction`, 0.8 by default) so that
 //! a slightly too large circle does not pull in the background; large circles are
 //! subsampled on a regular grid to at most `max_samples` pixels. Initialisation is
@@ -51,14 +56,18 @@ pub enum ColourError {
 
 /// Parameters of the colour check.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct ColourCheckConfig {
     /// Clusters, 1 to 8 (2 or 3 in practice).
     pub k: usize,
     /// Lloyd iterations after the k-means++ initialisation.
     pub iterations: usize,
-    /// Smallest share of the sampled pixels the dominant cluster must hold, in [0, 1].
+    /// Smallest share of the sampled pixels the dominant cluster must hold, in [0, 1]; with
+    /// patches, the ball's and the patches' clusters together.
     pub min_share: f64,
+    /// With patches, the smallest share of the sampled pixels the ball-coloured clusters
+    /// must hold, in [0, 1].
+    pub min_ball_share_with_patches: f64,
     /// Sampled disc radius as a fraction of the circle's radius, in (0, 1].
     pub radius_fraction: f64,
     /// Largest number of pixels clustered; larger circles are subsampled on a grid.
@@ -73,6 +82,7 @@ impl Default for ColourCheckConfig {
             k: 2,
             iterations: 6,
             min_share: 0.5,
+            min_ball_share_with_patches: 0.35,
             radius_fraction: 0.8,
             max_samples: 256,
             seed: 0x5EED,
@@ -89,6 +99,13 @@ impl ColourCheckConfig {
         }
         if !(0.0..=1.0).contains(&self.min_share) {
             return bad("min_share", self.min_share, "must be in [0, 1]");
+        }
+        if !(0.0..=1.0).contains(&self.min_ball_share_with_patches) {
+            return bad(
+                "min_ball_share_with_patches",
+                self.min_ball_share_with_patches,
+                "must be in [0, 1]",
+            );
         }
         if !(self.radius_fraction > 0.0 && self.radius_fraction <= 1.0) {
             return bad("radius_fraction", self.radius_fraction, "must be in (0, 1]");
@@ -107,7 +124,10 @@ pub struct ColourCheck {
     pub dominant_rgb: [u8; 3],
     /// Share of the sampled pixels in the largest cluster, in [0, 1].
     pub share: f64,
-    /// Whether the dominant colour is a ball colour and its share is large enough.
+    /// Share of the sampled pixels in clusters whose mean is a ball colour, in [0, 1].
+    pub ball_share: f64,
+    /// Whether the dominant colour is a ball colour and its share is large enough, or
+    /// (with patches) the ball's and the patches' colours are.
     pub passes: bool,
 }
 
@@ -231,16 +251,22 @@ fn sample_disc(
 }
 
 /// Checks the dominant colour inside the circle centred at `center_px` with radius
-/// `radius_px` against the ball's thresholds. A circle with no pixel on the image fails.
+/// `radius_px` against the ball's thresholds, and with `patches` (the colour window of a
+/// patterned ball's patches) accepts the ball's and the patches' colours together. A circle
+/// with no pixel on the image fails.
 pub fn colour_check(
     image: &RgbImage,
     center_px: [f64; 2],
     radius_px: f64,
     thresholds: &HsvThresholds,
+    patches: Option<&HsvThresholds>,
     config: &ColourCheckConfig,
 ) -> Result<ColourCheck, ColourError> {
     config.check()?;
     thresholds.check()?;
+    if let Some(p) = patches {
+        p.check()?;
+    }
     let usable =
         center_px.iter().all(|v| v.is_finite()) && radius_px.is_finite() && radius_px > 0.0;
     if !usable {
@@ -256,16 +282,41 @@ pub fn colour_check(
         return Ok(ColourCheck {
             dominant_rgb: [0; 3],
             share: 0.0,
+            ball_share: 0.0,
             passes: false,
         });
     };
-    let dominant_rgb = centre.map(|v| v.round().clamp(0.0, 255.0) as u8);
-    let share = count as f64 / pixels.len() as f64;
-    let (h, s, v) = rgb_to_hsv(dominant_rgb[0], dominant_rgb[1], dominant_rgb[2]);
+    let to_rgb = |c: [f32; 3]| c.map(|v| v.round().clamp(0.0, 255.0) as u8);
+    let inside = |window: &HsvThresholds, c: [f32; 3]| {
+        let [r, g, b] = to_rgb(c);
+        let (h, s, v) = rgb_to_hsv(r, g, b);
+        window.contains(h, s, v)
+    };
+    let total = pixels.len() as f64;
+    let share = count as f64 / total;
+    let share_of = |window: &HsvThresholds| {
+        let n: usize = (clusters.centres.iter().zip(&clusters.counts))
+            .filter(|&(&c, _)| inside(window, c))
+            .map(|(_, &n)| n)
+            .sum();
+        n as f64 / total
+    };
+    let ball_share = share_of(thresholds);
+    let plain = share >= config.min_share && inside(thresholds, centre);
+    let patterned = patches.is_some_and(|p| {
+        // A cluster in both windows counts once, as the ball's.
+        let either = (clusters.centres.iter().zip(&clusters.counts))
+            .filter(|&(&c, _)| inside(thresholds, c) || inside(p, c))
+            .map(|(_, &n)| n)
+            .sum::<usize>() as f64
+            / total;
+        ball_share >= config.min_ball_share_with_patches && either >= config.min_share
+    });
     Ok(ColourCheck {
-        dominant_rgb,
+        dominant_rgb: to_rgb(centre),
         share,
-        passes: share >= config.min_share && thresholds.contains(h, s, v),
+        ball_share,
+        passes: plain || patterned,
     })
 }
 

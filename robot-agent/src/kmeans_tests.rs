@@ -47,6 +47,7 @@ fn an_orange_disc_passes_and_a_blue_one_fails() {
         [30.0, 30.0],
         12.0,
         &orange(),
+        None,
         &cfg,
     )
     .unwrap();
@@ -58,6 +59,7 @@ fn an_orange_disc_passes_and_a_blue_one_fails() {
         [30.0, 30.0],
         12.0,
         &orange(),
+        None,
         &cfg,
     )
     .unwrap();
@@ -70,19 +72,19 @@ fn a_small_ball_coloured_share_fails() {
     // About 40 % orange, 60 % white: the dominant colour is white.
     let img = frame([240, 240, 240], [230, 120, 30], 8);
     let cfg = ColourCheckConfig::default();
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), &cfg).unwrap();
+    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), None, &cfg).unwrap();
     assert!(!c.passes, "{c:?}");
     assert!(c.share > 0.5 && c.share < 0.8, "{c:?}");
     // Mostly orange with a white part: passes with the default share, fails a strict one.
     let img = frame([230, 120, 30], [240, 240, 240], 8);
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), &cfg).unwrap();
+    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), None, &cfg).unwrap();
     assert!(c.passes && c.share < 0.85, "{c:?}");
     let strict = ColourCheckConfig {
         min_share: 0.9,
         ..cfg
     };
     assert!(
-        !colour_check(&img, [30.0, 30.0], 12.0, &orange(), &strict)
+        !colour_check(&img, [30.0, 30.0], 12.0, &orange(), None, &strict)
             .unwrap()
             .passes
     );
@@ -96,12 +98,12 @@ fn large_circles_are_subsampled_and_results_are_deterministic() {
         k: 3,
         ..ColourCheckConfig::default()
     };
-    let a = colour_check(&img, [200.0, 200.0], 150.0, &orange(), &cfg).unwrap();
-    let b = colour_check(&img, [200.0, 200.0], 150.0, &orange(), &cfg).unwrap();
+    let a = colour_check(&img, [200.0, 200.0], 150.0, &orange(), None, &cfg).unwrap();
+    let b = colour_check(&img, [200.0, 200.0], 150.0, &orange(), None, &cfg).unwrap();
     assert_eq!(a, b);
     assert!(a.passes);
     // Off the image entirely: nothing sampled, fails.
-    let off = colour_check(&img, [-500.0, -500.0], 10.0, &orange(), &cfg).unwrap();
+    let off = colour_check(&img, [-500.0, -500.0], 10.0, &orange(), None, &cfg).unwrap();
     assert!(!off.passes && off.share == 0.0);
 }
 
@@ -111,17 +113,45 @@ fn bad_inputs_are_errors() {
     let cfg = ColourCheckConfig::default();
     let bad_k = ColourCheckConfig { k: 0, ..cfg };
     assert!(matches!(
-        colour_check(&img, [30.0, 30.0], 12.0, &orange(), &bad_k),
+        colour_check(&img, [30.0, 30.0], 12.0, &orange(), None, &bad_k),
         Err(ColourError::BadParameter { name: "k", .. })
     ));
     assert!(matches!(
-        colour_check(&img, [30.0, f64::NAN], 12.0, &orange(), &cfg),
+        colour_check(&img, [30.0, f64::NAN], 12.0, &orange(), None, &cfg),
         Err(ColourError::BadCircle { .. })
     ));
     let mut t = orange();
     t.sat_min = 2.0;
     assert!(matches!(
-        colour_check(&img, [30.0, 30.0], 12.0, &t, &cfg),
+        colour_check(&img, [30.0, 30.0], 12.0, &t, None, &cfg),
         Err(ColourError::Thresholds(_))
     ));
+}
+
+#[test]
+fn ball_colour_with_white_patches_passes_and_white_alone_fails() {
+    let white = crate::two_colour::PatternConfig::default().white;
+    let cfg = ColourCheckConfig::default();
+    // About 40 % orange, 60 % white: a patterned ball's colours.
+    let img = frame([240, 240, 240], [230, 120, 30], 11);
+    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    assert!(c.passes && c.ball_share < 0.5, "{c:?}");
+    // Less orange than the configured share: not a ball.
+    let strict = ColourCheckConfig {
+        min_ball_share_with_patches: 0.6,
+        ..cfg
+    };
+    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &strict).unwrap();
+    assert!(!c.passes, "{c:?}");
+    // White alone, or white with a little orange, never passes.
+    let img = frame([240, 240, 240], [240, 240, 240], 0);
+    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    assert!(!c.passes && c.ball_share == 0.0, "{c:?}");
+    let img = frame([240, 240, 240], [230, 120, 30], 3);
+    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    assert!(!c.passes, "{c:?}");
+    // Orange with blue is not a patterned ball either.
+    let img = frame([30, 60, 220], [230, 120, 30], 8);
+    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    assert!(!c.passes, "{c:?}");
 }

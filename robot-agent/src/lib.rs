@@ -24,7 +24,8 @@
 //! - [`hsv`]: HSV colour thresholds, the frame's colour mask (exact, or through a lookup
 //!   table), and lighting adaptation of the thresholds.
 //! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
-//! - [`components`]: connected components of a mask with area, bounding box and centroid.
+//! - [`components`]: connected components of a mask with area, bounding box and centroid,
+//!   optionally joining fragments a few pixels apart.
 //! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
 //! - [`patch`]: the 32×32 candidate patch around a circle, with mirroring and rotation.
 //! - [`hog`]: the histogram-of-oriented-gradients descriptor of a patch (288 features).
@@ -35,6 +36,8 @@
 //! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
 //! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
 //! - [`rectify`]: local perspective views of a fisheye frame, where a ball is round.
+//! - [`two_colour`]: the two-colour mask of a patterned ball (the ball's colour with white
+//!   patches) as one disc.
 //! - [`detect`]: one frame to ball candidates through the stages above.
 //!
 //! Projection and the agent:
@@ -79,3 +82,4 @@ mod svm_model;
 #[cfg(test)]
 mod test_fixtures;
 pub mod train;
+pub mod two_colour;

@@ -1,4 +1,5 @@
-//! Binary morphology on masks: erosion, dilation, opening and closing with a square kernel.
+//! Binary morphology on masks: erosion, dilation, opening and closing with a square kernel,
+//! and hole filling.
 //!
 //! The kernel of radius r is the (2r + 1) × (2r + 1) square centred on the pixel. Windows
 //! are clipped to the mask: pixels off the mask are neither selected nor required, so the
@@ -108,6 +109,50 @@ pub fn open(mask: &Mask, radius_px: u32) -> Mask {
 /// pixels and never clears a selected pixel.
 pub fn close(mask: &Mask, radius_px: u32) -> Mask {
     erode(&dilate(mask, radius_px), radius_px)
+}
+
+/// Hole filling: selects every unset pixel that is not connected (4-neighbour) through
+/// unset pixels to the mask's border, i.e. the background that selected pixels enclose.
+/// Never clears a selected pixel.
+pub fn fill_holes(mask: &Mask) -> Mask {
+    let (w, h) = (mask.width() as usize, mask.height() as usize);
+    if w == 0 || h == 0 {
+        return mask.clone();
+    }
+    // 0: unset and not (yet) reached from the border, 1: selected, 2: reached background.
+    let mut state: Vec<u8> = mask.data().to_vec();
+    let mut stack: Vec<usize> = Vec::new();
+    fn seed(i: usize, state: &mut [u8], stack: &mut Vec<usize>) {
+        if state[i] == 0 {
+            state[i] = 2;
+            stack.push(i);
+        }
+    }
+    for x in 0..w {
+        seed(x, &mut state, &mut stack);
+        seed((h - 1) * w + x, &mut state, &mut stack);
+    }
+    for y in 0..h {
+        seed(y * w, &mut state, &mut stack);
+        seed(y * w + w - 1, &mut state, &mut stack);
+    }
+    while let Some(i) = stack.pop() {
+        let (x, y) = (i % w, i / w);
+        if x > 0 {
+            seed(i - 1, &mut state, &mut stack);
+        }
+        if x + 1 < w {
+            seed(i + 1, &mut state, &mut stack);
+        }
+        if y > 0 {
+            seed(i - w, &mut state, &mut stack);
+        }
+        if y + 1 < h {
+            seed(i + w, &mut state, &mut stack);
+        }
+    }
+    let data = state.into_iter().map(|s| u8::from(s != 2)).collect();
+    Mask::from_parts_unchecked(mask.width(), mask.height(), data)
 }
 
 #[cfg(test)]

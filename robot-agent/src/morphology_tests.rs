@@ -84,3 +84,37 @@ proptest! {
         prop_assert_eq!(dilate(&m, radius), brute(&m, radius, false));
     }
 }
+
+#[test]
+fn fill_holes_fills_enclosed_background_only() {
+    // A ring with a hole, and a ring cut open to the border.
+    let mut m = Mask::zeros(40, 20).unwrap();
+    for y in 2..12 {
+        for x in 2..12 {
+            m.set(x, y, !(4..10).contains(&x) || !(4..10).contains(&y));
+        }
+    }
+    for y in 0..10 {
+        for x in 20..30 {
+            m.set(x, y, !(22..28).contains(&x) || !(2..8).contains(&y));
+        }
+    }
+    for y in 0..2 {
+        for x in 24..26 {
+            m.set(x, y, false);
+        }
+    }
+    let filled = fill_holes(&m);
+    assert!(
+        filled.get(6, 6) && filled.get(9, 9),
+        "the closed ring's hole is filled"
+    );
+    assert!(
+        !filled.get(24, 4),
+        "the open ring's inside is reached from the border"
+    );
+    assert!(!filled.get(0, 0) && !filled.get(15, 15));
+    // Nothing selected is cleared, and the only additions are the hole.
+    assert_eq!(filled.count(), m.count() + 36);
+    assert_eq!(fill_holes(&Mask::zeros(0, 0).unwrap()).count(), 0);
+}

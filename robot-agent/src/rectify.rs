@@ -11,6 +11,7 @@
 //! pixels, through the calibrated model.
 
 use crate::camera::CameraModel;
+use crate::hsv::MaskLut;
 use crate::image::{ImageError, Mask, RgbImage};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -135,6 +136,27 @@ impl LocalView {
                 let top = at(x0, y0) + (at(x0 + 1, y0) - at(x0, y0)) * fx;
                 let bottom = at(x0, y0 + 1) + (at(x0 + 1, y0 + 1) - at(x0, y0 + 1)) * fx;
                 u8::from(top + (bottom - top) * fy >= 0.5)
+            })
+            .collect();
+        Mask::new(self.side(), self.side(), data)
+    }
+
+    /// The colour mask of the frame seen through the view: each view pixel's nearest frame
+    /// pixel through `lut` (off the frame is unset).
+    pub fn sample_lut(&self, image: &RgbImage, lut: &MaskLut) -> Result<Mask, ImageError> {
+        let (w, h) = (image.width() as usize, image.height() as usize);
+        let src = image.data();
+        let data = self
+            .map
+            .iter()
+            .map(|&[u, v]| {
+                let (x, y) = ((u + 0.5).floor(), (v + 0.5).floor());
+                if x >= 0.0 && y >= 0.0 && (x as usize) < w && (y as usize) < h {
+                    let i = 3 * (y as usize * w + x as usize);
+                    u8::from(lut.accepts(src[i], src[i + 1], src[i + 2]))
+                } else {
+                    0
+                }
             })
             .collect();
         Mask::new(self.side(), self.side(), data)

@@ -153,7 +153,7 @@ fn bench_filter_stages() {
     let t = Instant::now();
     let mut passes = 0;
     for _ in 0..reps {
-        let c = crate::kmeans::colour_check(&image, centre, radius, &thresholds, &colour_cfg);
+        let c = crate::kmeans::colour_check(&image, centre, radius, &thresholds, None, &colour_cfg);
         passes += usize::from(c.unwrap().passes);
     }
     let colour_us = t.elapsed().as_secs_f64() * 1e6 / f64::from(reps);

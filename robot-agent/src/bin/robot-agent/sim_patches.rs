@@ -5,10 +5,12 @@
 //! Frames come from simulated matches through every robot's cameras, and candidates are
 //! proposed in their local views through the agent's calibration of the simulated camera,
 //! exactly as the running agent sees them. Candidates are mined
-//! with two colour windows: the ball's own (wide) window, which proposes the ball and
-//! orange-ish look-alikes (wall markings, partly hidden balls), and a window for white and
-//! grey things, which proposes robot heads and bodies, the walls and the patterned ball's
-//! white patches: the round look-alikes the shape filter must learn to refuse.
+//! with two colour windows: the ball's own (wide) window with the two-colour mask of a
+//! patterned ball, which proposes the ball, plain or patterned, and orange-ish look-alikes
+//! (wall markings, alone or joined with the white wall behind them, partly hidden balls),
+//! and a window for white and grey things, which proposes robot heads and bodies, the walls
+//! and the patterned ball's white patches: the round look-alikes the shape filter must
+//! learn to refuse.
 
 use anyhow::Result;
 use robot_agent::camera::CameraModel;
@@ -16,6 +18,7 @@ use robot_agent::detect::{Detector, DetectorConfig, NoClock};
 use robot_agent::hsv::HsvThresholds;
 use robot_agent::image::RgbImage;
 use robot_agent::patch::{Patch, PatchConfig, extract};
+use robot_agent::two_colour::PatternConfig;
 use sim::camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
 use sim::lens::LensModel;
 use sim::render::CameraRig;
@@ -70,6 +73,10 @@ fn miners() -> Result<Vec<Detector>> {
     let white_cfg = DetectorConfig {
         thresholds: white,
         limits: white,
+        pattern: PatternConfig {
+            enabled: false,
+            ..ball.pattern
+        },
         ..ball
     };
     Ok(vec![Detector::new(ball_wide)?, Detector::new(white_cfg)?])
