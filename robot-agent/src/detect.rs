@@ -147,6 +147,8 @@ pub struct Candidate {
     pub probability: f64,
     /// Half the angle the ball subtends at the camera, when a camera model was given.
     pub angular_radius_rad: Option<f64>,
+    /// See [`Proposal::sparse_blob`].
+    pub sparse_blob: bool,
 }
 
 /// A circle the colour and shape stages propose.
@@ -160,6 +162,9 @@ pub struct Proposal {
     pub view: Option<usize>,
     /// Half the angle the ball subtends at the camera, when a camera model was given.
     pub angular_radius_rad: Option<f64>,
+    /// The circle came from a sparse blob (a patterned ball's fragments, or a ball partly
+    /// hidden): its outline, and so its radius, is less certain than a solid disc's.
+    pub sparse_blob: bool,
 }
 
 /// A frame's proposals and the local views they were found in.
@@ -285,7 +290,7 @@ impl Detector {
         let blobs = joined_components(&mask, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
         clock.mark("blobs");
         // Circles per blob, in the blob's local view (with a model) or in the frame.
-        let mut found: Vec<(Option<LocalView>, Vec<Circle>)> = Vec::new();
+        let mut found: Vec<(Option<LocalView>, Vec<Circle>, bool)> = Vec::new();
         for blob in &blobs {
             let m = cfg.roi_margin_px + cfg.close_radius_px;
             let hull = cfg.pattern.patterned_hull(blob);
@@ -315,7 +320,7 @@ impl Detector {
                         _ => None,
                     };
                     let circles = self.circles(view.sample_mask(&mask)?, patterned)?;
-                    found.push((Some(view), circles));
+                    found.push((Some(view), circles, hull.is_some()));
                 }
                 None => {
                     let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
@@ -346,12 +351,16 @@ impl Detector {
                         ..c
                     };
                     let circles = self.circles(roi, patterned)?;
-                    found.push((None, circles.into_iter().map(shift).collect()));
+                    found.push((
+                        None,
+                        circles.into_iter().map(shift).collect(),
+                        hull.is_some(),
+                    ));
                 }
             }
         }
         let mut proposals = Proposals::default();
-        for (view, circles) in found {
+        for (view, circles, sparse_blob) in found {
             match (view, model) {
                 (Some(view), Some(model)) => {
                     if circles.is_empty() {
@@ -370,6 +379,7 @@ impl Detector {
                             angular_radius_rad: Some(
                                 view.angular_radius_rad(c.center_px, c.radius_px),
                             ),
+                            sparse_blob,
                         });
                     }
                 }
@@ -380,6 +390,7 @@ impl Detector {
                         local: c,
                         view: None,
                         angular_radius_rad: None,
+                        sparse_blob,
                     })),
             }
         }
@@ -406,6 +417,7 @@ impl Detector {
                     circle: p.frame,
                     probability,
                     angular_radius_rad: p.angular_radius_rad,
+                    sparse_blob: p.sparse_blob,
                 })
             })
             .collect();

@@ -176,7 +176,8 @@ fn validate(
     let ball = ImageBall {
         center_px: circle.center_px,
         radius_px: circle.radius_px,
-        angular_radius_rad,
+        // A sparse blob's radius is too uncertain to range by: the ground plane alone.
+        angular_radius_rad: angular_radius_rad.filter(|_| !candidate.sparse_blob),
     };
     let floor = project_ball(
         ctx.model,

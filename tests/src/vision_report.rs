@@ -12,6 +12,9 @@ use std::path::Path;
 
 pub const SECTION_BEGIN: &str = "<!-- evaluate-vision:begin -->";
 pub const SECTION_END: &str = "<!-- evaluate-vision:end -->";
+/// The same with the patterned ball (`evaluate --vision --patterned-ball`).
+pub const PATTERNED_SECTION_BEGIN: &str = "<!-- evaluate-vision-patterned:begin -->";
+pub const PATTERNED_SECTION_END: &str = "<!-- evaluate-vision-patterned:end -->";
 
 /// Detection counted over frames, the way `robot-agent run` counts against the truth.
 #[derive(Debug, Clone, Default, Serialize, PartialEq)]
@@ -541,10 +544,10 @@ pub fn recall_chart(rep: &VisionReport) -> Chart {
     chart
 }
 
-/// Writes the plot into `dir`; returns the file written.
-pub fn write_plot(dir: &Path, rep: &VisionReport) -> anyhow::Result<String> {
+/// Writes the plot into `dir` as `name`; returns the file written.
+pub fn write_plot(dir: &Path, name: &str, rep: &VisionReport) -> anyhow::Result<String> {
     std::fs::create_dir_all(dir)?;
-    let path = dir.join("vision_recall_by_radius.png");
+    let path = dir.join(name);
     write_png(&recall_chart(rep), &path)?;
     Ok(path.display().to_string())
 }

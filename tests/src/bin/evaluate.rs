@@ -21,6 +21,10 @@ struct Args {
     /// `<!-- evaluate-vision:begin -->` / `<!-- evaluate-vision:end -->`.
     #[arg(long)]
     vision: bool,
+    /// With `--vision`: render the ball orange with white patches instead of plain. Its
+    /// generated section is marked `<!-- evaluate-vision-patterned:begin -->` / `…:end -->`.
+    #[arg(long, requires = "vision")]
+    patterned_ball: bool,
     /// Write the full report as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -149,6 +153,9 @@ fn command(args: &Args, names: &[&str], seeds: u64) -> String {
     if args.vision {
         cmd.push_str(" --vision");
     }
+    if args.patterned_ball {
+        cmd.push_str(" --patterned-ball");
+    }
     cmd.push_str(&format!(" --seeds {seeds}"));
     if let Some(doc) = &args.doc {
         cmd.push_str(&format!(" --doc {}", doc.display()));
@@ -164,7 +171,10 @@ fn command(args: &Args, names: &[&str], seeds: u64) -> String {
 fn run_vision(args: &Args) -> anyhow::Result<()> {
     let names = scenario_list(args, sim::SEED_SCENARIOS.to_vec())?;
     let seeds = args.seeds.unwrap_or(5);
-    let vcfg = VisionConfig::default();
+    let mut vcfg = VisionConfig::default();
+    if args.patterned_ball {
+        vcfg.camera.ball_look = sim::camera_world::patterned_ball();
+    }
     let started = std::time::Instant::now();
     let results = evaluate_vision(&names, seeds, &sim::SimConfig::default(), &vcfg, args.jobs)?;
     let grid_step_px = 4.0;
@@ -193,15 +203,26 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
             args.jobs,
             vcfg.latency_s * 1e3,
         );
-        report::rewrite_section_between(
-            path,
-            vision_report::SECTION_BEGIN,
-            vision_report::SECTION_END,
-            &section,
-        )?;
+        let (begin, end) = if args.patterned_ball {
+            (
+                vision_report::PATTERNED_SECTION_BEGIN,
+                vision_report::PATTERNED_SECTION_END,
+            )
+        } else {
+            (vision_report::SECTION_BEGIN, vision_report::SECTION_END)
+        };
+        report::rewrite_section_between(path, begin, end, &section)?;
         eprintln!("updated {}", path.display());
     }
-    eprintln!("wrote {}", vision_report::write_plot(&args.plots, &rep)?);
+    let plot = if args.patterned_ball {
+        "vision_recall_by_radius_patterned.png"
+    } else {
+        "vision_recall_by_radius.png"
+    };
+    eprintln!(
+        "wrote {}",
+        vision_report::write_plot(&args.plots, plot, &rep)?
+    );
     Ok(())
 }
 
