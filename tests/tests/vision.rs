@@ -67,3 +67,32 @@ fn a_ball_rolling_up_close_is_found_and_its_covariance_is_honest() {
         nees.len()
     );
 }
+
+#[test]
+fn a_patterned_ball_is_found_and_its_covariance_is_honest() {
+    let sim_cfg = sim::SimConfig {
+        duration_s: Some(4.0),
+        ..sim::SimConfig::default()
+    };
+    let mut cfg = VisionConfig::default();
+    cfg.camera.ball_look = sim::camera_world::patterned_ball();
+    let run = sim::run_scenario("seed-1-across", 1, &sim_cfg).expect("scenario");
+    let (_, frames) = perceive(&run, &cfg).expect("perceive");
+    let d = Detection::of(&frames);
+    let recall = d.recall.expect("recall");
+    assert!(
+        recall >= 0.9,
+        "patterned-ball recall {recall:.3} < 0.9 ({d:?})"
+    );
+    assert_eq!(d.false_sightings, 0, "{d:?}");
+    let nees: Vec<f64> = frames
+        .iter()
+        .filter_map(|f| f.error.map(|e| e.nees))
+        .collect();
+    let mean = nees.iter().sum::<f64>() / nees.len() as f64;
+    assert!(
+        (0.5..4.0).contains(&mean),
+        "mean NEES {mean:.2} over {} hits",
+        nees.len()
+    );
+}
