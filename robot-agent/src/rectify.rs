@@ -214,13 +214,8 @@ mod tests {
         }
     }
 
-    /// A sphere near the image edge is an ellipse in the frame and a circle in the view.
-    #[test]
-    fn a_sphere_at_the_edge_is_round_in_its_local_view() {
-        let model = fisheye();
-        let centre = Vector3::new(-1.6, 0.3, 1.0).normalize();
-        let alpha: f64 = 0.06;
-        // Draw the sphere's silhouette into a frame mask.
+    /// The frame mask of a sphere seen in direction `centre` with angular radius `alpha`.
+    fn silhouette(model: &CameraModel, centre: Vector3<f64>, alpha: f64) -> Mask {
         let mut mask = Mask::zeros(640, 360).unwrap();
         for y in 0..360 {
             for x in 0..640 {
@@ -231,6 +226,16 @@ mod tests {
                 }
             }
         }
+        mask
+    }
+
+    /// A sphere near the image edge is an ellipse in the frame and a circle in the view.
+    #[test]
+    fn a_sphere_at_the_edge_is_round_in_its_local_view() {
+        let model = fisheye();
+        let centre = Vector3::new(-1.6, 0.3, 1.0).normalize();
+        let alpha: f64 = 0.06;
+        let mask = silhouette(&model, centre, alpha);
         let centre_px = model.project(centre.into()).unwrap();
         let view = LocalView::new(&model, centre_px, 30.0).unwrap();
         let local = view.sample_mask(&mask).unwrap();
@@ -273,16 +278,7 @@ mod tests {
         let model = fisheye();
         let centre = Vector3::new(1.3, 0.5, 1.0).normalize();
         let alpha: f64 = 0.1;
-        let mut mask = Mask::zeros(640, 360).unwrap();
-        for y in 0..360 {
-            for x in 0..640 {
-                if let Some(r) = model.unproject([f64::from(x), f64::from(y)])
-                    && Vector3::from(r).angle(&centre) <= alpha
-                {
-                    mask.set(x, y, true);
-                }
-            }
-        }
+        let mask = silhouette(&model, centre, alpha);
         let centre_px = model.project(centre.into()).unwrap();
         let view = LocalView::new(&model, centre_px, 40.0).unwrap();
         let local = view.sample_mask(&mask).unwrap();

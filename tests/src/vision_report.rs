@@ -413,36 +413,32 @@ pub fn detection_table(rep: &VisionReport) -> String {
     out
 }
 
+/// A calibration table: probability bins against how often they were the ball.
+fn calibration_table(what: &str, probability: &str, bins: &[ConfidenceBin]) -> String {
+    let mut out = format!(
+        "| {probability} | {what} | mean {probability} | was the ball % |\n|---|---|---|---|\n"
+    );
+    for b in bins {
+        out.push_str(&format!(
+            "| {:.2}–{:.2} | {} | {} | {} |\n",
+            b.lo,
+            b.hi,
+            b.observations,
+            num(b.mean_confidence, 3),
+            pct(b.ball_fraction)
+        ));
+    }
+    out
+}
+
 /// Confidence calibration, pipeline time and the lens check.
 pub fn extras_table(rep: &VisionReport) -> String {
-    let mut out = String::from(
-        "| confidence | observations | mean confidence | was the ball % |\n|---|---|---|---|\n",
-    );
-    for b in &rep.confidence {
-        out.push_str(&format!(
-            "| {:.2}–{:.2} | {} | {} | {} |\n",
-            b.lo,
-            b.hi,
-            b.observations,
-            num(b.mean_confidence, 3),
-            pct(b.ball_fraction)
-        ));
-    }
+    let mut out = calibration_table("observations", "confidence", &rep.confidence);
     out.push_str(&format!(
-        "\nEvery candidate the classifier scored (published or not; Brier score {}):\n\n\
-         | probability | candidates | mean probability | was the ball % |\n|---|---|---|---|\n",
-        num(rep.candidate_brier, 4)
+        "\nEvery candidate the classifier scored (published or not; Brier score {}):\n\n{}",
+        num(rep.candidate_brier, 4),
+        calibration_table("candidates", "probability", &rep.candidate_calibration)
     ));
-    for b in &rep.candidate_calibration {
-        out.push_str(&format!(
-            "| {:.2}–{:.2} | {} | {} | {} |\n",
-            b.lo,
-            b.hi,
-            b.observations,
-            num(b.mean_confidence, 3),
-            pct(b.ball_fraction)
-        ));
-    }
     let t = &rep.timing;
     let c = &rep.calibration;
     out.push_str(&format!(
