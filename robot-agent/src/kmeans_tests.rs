@@ -21,6 +21,15 @@ fn frame(rgb: [u8; 3], left_rgb: [u8; 3], left_cols: u32) -> RgbImage {
     img
 }
 
+/// The colour check of the frame's disc against the orange window.
+fn check_disc(
+    img: &RgbImage,
+    patches: Option<&HsvThresholds>,
+    cfg: &ColourCheckConfig,
+) -> ColourCheck {
+    colour_check(img, [30.0, 30.0], 12.0, &orange(), patches, cfg).unwrap()
+}
+
 #[test]
 fn kmeans_separates_two_colours() {
     let mut pixels = vec![[230.0, 120.0, 30.0]; 70];
@@ -42,27 +51,11 @@ fn kmeans_separates_two_colours() {
 #[test]
 fn an_orange_disc_passes_and_a_blue_one_fails() {
     let cfg = ColourCheckConfig::default();
-    let ok = colour_check(
-        &frame([230, 120, 30], [230, 120, 30], 0),
-        [30.0, 30.0],
-        12.0,
-        &orange(),
-        None,
-        &cfg,
-    )
-    .unwrap();
+    let ok = check_disc(&frame([230, 120, 30], [230, 120, 30], 0), None, &cfg);
     assert!(ok.passes, "{ok:?}");
     assert_eq!(ok.dominant_rgb, [230, 120, 30]);
     assert_eq!(ok.share, 1.0);
-    let blue = colour_check(
-        &frame([30, 60, 220], [30, 60, 220], 0),
-        [30.0, 30.0],
-        12.0,
-        &orange(),
-        None,
-        &cfg,
-    )
-    .unwrap();
+    let blue = check_disc(&frame([30, 60, 220], [30, 60, 220], 0), None, &cfg);
     assert!(!blue.passes, "{blue:?}");
     assert_eq!(blue.dominant_rgb, [30, 60, 220]);
 }
@@ -72,22 +65,18 @@ fn a_small_ball_coloured_share_fails() {
     // About 40 % orange, 60 % white: the dominant colour is white.
     let img = frame([240, 240, 240], [230, 120, 30], 8);
     let cfg = ColourCheckConfig::default();
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), None, &cfg).unwrap();
+    let c = check_disc(&img, None, &cfg);
     assert!(!c.passes, "{c:?}");
     assert!(c.share > 0.5 && c.share < 0.8, "{c:?}");
     // Mostly orange with a white part: passes with the default share, fails a strict one.
     let img = frame([230, 120, 30], [240, 240, 240], 8);
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), None, &cfg).unwrap();
+    let c = check_disc(&img, None, &cfg);
     assert!(c.passes && c.share < 0.85, "{c:?}");
     let strict = ColourCheckConfig {
         min_share: 0.9,
         ..cfg
     };
-    assert!(
-        !colour_check(&img, [30.0, 30.0], 12.0, &orange(), None, &strict)
-            .unwrap()
-            .passes
-    );
+    assert!(!check_disc(&img, None, &strict).passes);
 }
 
 #[test]
@@ -134,24 +123,24 @@ fn ball_colour_with_white_patches_passes_and_white_alone_fails() {
     let cfg = ColourCheckConfig::default();
     // About 40 % orange, 60 % white: a patterned ball's colours.
     let img = frame([240, 240, 240], [230, 120, 30], 11);
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    let c = check_disc(&img, Some(&white), &cfg);
     assert!(c.passes && c.ball_share < 0.5, "{c:?}");
     // Less orange than the configured share: not a ball.
     let strict = ColourCheckConfig {
         min_ball_share_with_patches: 0.6,
         ..cfg
     };
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &strict).unwrap();
+    let c = check_disc(&img, Some(&white), &strict);
     assert!(!c.passes, "{c:?}");
     // White alone, or white with a little orange, never passes.
     let img = frame([240, 240, 240], [240, 240, 240], 0);
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    let c = check_disc(&img, Some(&white), &cfg);
     assert!(!c.passes && c.ball_share == 0.0, "{c:?}");
     let img = frame([240, 240, 240], [230, 120, 30], 3);
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    let c = check_disc(&img, Some(&white), &cfg);
     assert!(!c.passes, "{c:?}");
     // Orange with blue is not a patterned ball either.
     let img = frame([30, 60, 220], [230, 120, 30], 8);
-    let c = colour_check(&img, [30.0, 30.0], 12.0, &orange(), Some(&white), &cfg).unwrap();
+    let c = check_disc(&img, Some(&white), &cfg);
     assert!(!c.passes, "{c:?}");
 }

@@ -21,7 +21,7 @@ use crate::detect::{Candidate, CandidateClassifier, DetectError, Detector, Stage
 use crate::hough::Circle;
 use crate::image::RgbImage;
 use crate::projection::{
-    FloorPoint, ImageBall, ProjectionError, ProjectionNoise, distance_from_image_radius,
+    FloorPoint, ImageBall, ProjectionError, ProjectionNoise, angular_radius_from_image_radius,
     project_ball,
 };
 use proto::{Camera, HeadJoints, Pitch, Pose2};
@@ -170,8 +170,7 @@ fn validate(
         .angular_radius_rad
         .filter(|a| *a > 0.0)
         .or_else(|| {
-            distance_from_image_radius(ctx.model, circle.center_px, circle.radius_px, ball_radius_m)
-                .map(|d| (ball_radius_m / d).clamp(-1.0, 1.0).asin())
+            angular_radius_from_image_radius(ctx.model, circle.center_px, circle.radius_px)
         });
     let ball = ImageBall {
         center_px: circle.center_px,

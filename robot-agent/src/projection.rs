@@ -337,15 +337,13 @@ pub fn project_ball(
     })
 }
 
-/// The distance from the camera's optical centre to a ball of radius `ball_radius_m` that
-/// appears with image radius `radius_px` around `pixel`: the angle between the rays through
-/// the centre and through points `radius_px` away on either side gives the ball's angular
-/// radius. `None` where the model cannot unproject.
-pub fn distance_from_image_radius(
+/// The angular radius of a ball that appears with image radius `radius_px` around `pixel`:
+/// the angle between the rays through the centre and through points `radius_px` away on
+/// either side, averaged. `None` where the model cannot unproject or the angle is zero.
+pub fn angular_radius_from_image_radius(
     model: &CameraModel,
     pixel: [f64; 2],
     radius_px: f64,
-    ball_radius_m: f64,
 ) -> Option<f64> {
     let centre = Vector3::from(model.unproject(pixel)?);
     let mut sum = 0.0;
@@ -355,7 +353,19 @@ pub fn distance_from_image_radius(
         sum += centre.angle(&edge);
     }
     let alpha = sum / 4.0;
-    (alpha > 0.0).then(|| ball_radius_m / alpha.sin())
+    (alpha > 0.0).then_some(alpha)
+}
+
+/// The distance from the camera's optical centre to a ball of radius `ball_radius_m` that
+/// appears with image radius `radius_px` around `pixel` (see
+/// [`angular_radius_from_image_radius`]).
+pub fn distance_from_image_radius(
+    model: &CameraModel,
+    pixel: [f64; 2],
+    radius_px: f64,
+    ball_radius_m: f64,
+) -> Option<f64> {
+    angular_radius_from_image_radius(model, pixel, radius_px).map(|a| ball_radius_m / a.sin())
 }
 
 /// The part of the floor a camera sees, as a polygon in the field frame: the image border

@@ -229,6 +229,18 @@ mod tests {
         mask
     }
 
+    /// The circles the default Hough transform finds in `mask` seen through `view`.
+    fn circles_in_view(view: &LocalView, mask: &Mask) -> Vec<crate::hough::Circle> {
+        let local = view.sample_mask(mask).unwrap();
+        crate::hough::detect(
+            local.data(),
+            local.width() as usize,
+            local.height() as usize,
+            &Default::default(),
+        )
+        .unwrap()
+    }
+
     /// A sphere near the image edge is an ellipse in the frame and a circle in the view.
     #[test]
     fn a_sphere_at_the_edge_is_round_in_its_local_view() {
@@ -238,14 +250,7 @@ mod tests {
         let mask = silhouette(&model, centre, alpha);
         let centre_px = model.project(centre.into()).unwrap();
         let view = LocalView::new(&model, centre_px, 30.0).unwrap();
-        let local = view.sample_mask(&mask).unwrap();
-        let circles = crate::hough::detect(
-            local.data(),
-            local.width() as usize,
-            local.height() as usize,
-            &Default::default(),
-        )
-        .unwrap();
+        let circles = circles_in_view(&view, &mask);
         let c = circles[0];
         let ray = Vector3::from(view.ray(c.center_px));
         assert!(
@@ -281,14 +286,7 @@ mod tests {
         let mask = silhouette(&model, centre, alpha);
         let centre_px = model.project(centre.into()).unwrap();
         let view = LocalView::new(&model, centre_px, 40.0).unwrap();
-        let local = view.sample_mask(&mask).unwrap();
-        let circles = crate::hough::detect(
-            local.data(),
-            local.width() as usize,
-            local.height() as usize,
-            &Default::default(),
-        )
-        .unwrap();
+        let circles = circles_in_view(&view, &mask);
         let c = circles.first().expect("no circle in the view");
         assert!(c.score > 0.75, "{c:?}");
         let a = view.angular_radius_rad(c.center_px, c.radius_px);

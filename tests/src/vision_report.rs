@@ -7,7 +7,7 @@ use crate::plot::{Chart, Marker, PALETTE, Series, Style, write_png};
 use crate::report::{Report, TargetCheck};
 use crate::vision::{FrameStat, LensError, SightingError, VisionResult};
 use serde::Serialize;
-use sim::score::quantile;
+use sim::score::{mean, quantile, rms};
 use std::path::Path;
 
 pub const SECTION_BEGIN: &str = "<!-- evaluate-vision:begin -->";
@@ -146,15 +146,6 @@ const RANGE_EDGES_M: [f64; 7] = [0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 10.0];
 /// χ² with two degrees of freedom at 95 %.
 const CHI2_2DOF_95: f64 = 5.991;
 
-fn mean(xs: impl Iterator<Item = f64>) -> Option<f64> {
-    let (n, sum) = xs.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));
-    (n > 0).then(|| sum / n as f64)
-}
-
-fn rms(xs: impl Iterator<Item = f64>) -> Option<f64> {
-    mean(xs.map(|x| x * x)).map(f64::sqrt)
-}
-
 fn range_bins(frames: &[&FrameStat]) -> Vec<RangeBin> {
     RANGE_EDGES_M
         .windows(2)
@@ -164,24 +155,25 @@ fn range_bins(frames: &[&FrameStat]) -> Vec<RangeBin> {
                 .filter_map(|f| f.error)
                 .filter(|e| (w[0]..w[1]).contains(&e.range_m))
                 .collect();
-            let it = || e.iter();
+            // One field of every sighting error, for the slice statistics.
+            let of = |f: fn(&SightingError) -> f64| e.iter().map(f).collect::<Vec<f64>>();
             RangeBin {
                 lo_m: w[0],
                 hi_m: w[1],
                 hits: e.len(),
-                mean_pixel_px: mean(it().map(|e| e.pixel_px[0]))
-                    .zip(mean(it().map(|e| e.pixel_px[1])))
+                mean_pixel_px: mean(&of(|e| e.pixel_px[0]))
+                    .zip(mean(&of(|e| e.pixel_px[1])))
                     .map(|(u, v)| [u, v]),
-                mean_radius_px: mean(it().map(|e| e.radius_px)),
-                rms_pixel_px: rms(it().map(|e| e.pixel_px[0].hypot(e.pixel_px[1]))),
-                rms_radius_px: rms(it().map(|e| e.radius_px)),
-                mean_along_m: mean(it().map(|e| e.along_m)),
-                rms_along_m: rms(it().map(|e| e.along_m)),
-                rms_across_m: rms(it().map(|e| e.across_m)),
-                stated_along_m: rms(it().map(|e| e.sigma_along_m)),
-                stated_across_m: rms(it().map(|e| e.sigma_across_m)),
-                mean_nees: mean(it().map(|e| e.nees)),
-                inside_95: mean(it().map(|e| f64::from(u8::from(e.nees <= CHI2_2DOF_95)))),
+                mean_radius_px: mean(&of(|e| e.radius_px)),
+                rms_pixel_px: rms(&of(|e| e.pixel_px[0].hypot(e.pixel_px[1]))),
+                rms_radius_px: rms(&of(|e| e.radius_px)),
+                mean_along_m: mean(&of(|e| e.along_m)),
+                rms_along_m: rms(&of(|e| e.along_m)),
+                rms_across_m: rms(&of(|e| e.across_m)),
+                stated_along_m: rms(&of(|e| e.sigma_along_m)),
+                stated_across_m: rms(&of(|e| e.sigma_across_m)),
+                mean_nees: mean(&of(|e| e.nees)),
+                inside_95: mean(&of(|e| f64::from(u8::from(e.nees <= CHI2_2DOF_95)))),
             }
         })
         .collect()
@@ -340,9 +332,10 @@ pub fn report(
         ),
         candidate_calibration: calibration_bins(&candidates, &CANDIDATE_EDGES),
         candidate_brier: mean(
-            candidates
+            &candidates
                 .iter()
-                .map(|(p, ball)| (p - f64::from(u8::from(*ball))).powi(2)),
+                .map(|(p, ball)| (p - f64::from(u8::from(*ball))).powi(2))
+                .collect::<Vec<f64>>(),
         ),
         recall_by_radius: radius_bins(&all),
         accuracy_by_range: range_bins(&all),
