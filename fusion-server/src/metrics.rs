@@ -102,7 +102,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let mut out = String::with_capacity(4096);
     let c = engine.counters();
     let core = engine.fusion().counters();
-    let simple: [(&str, &str, &str, u64); 12] = [
+    let simple: [(&str, &str, &str, u64); 14] = [
         (
             "rf_observations_accepted_total",
             "counter",
@@ -126,6 +126,18 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "counter",
             "Accepted observations beyond a wall, ignored by the tracker.",
             core.outside_walls,
+        ),
+        (
+            "rf_observations_held_total",
+            "counter",
+            "Observations that went to hypotheses other than the estimate (awaiting promotion, or phantoms).",
+            core.held_in_hypotheses,
+        ),
+        (
+            "rf_kicks_inferred_total",
+            "counter",
+            "Kicks inferred from runs of surprising sightings.",
+            core.kicks_inferred,
         ),
         (
             "rf_states_published_total",

@@ -91,11 +91,15 @@ pub const TEAM_SCENARIOS: [&str; 7] = [
     "match",
 ];
 
+/// The seed's lone robot with a slow perception loop (5 Hz, 10 Hz).
+pub const SLOW_ROBOT_SCENARIOS: [&str; 2] = ["single-slow-robot", "single-slow-robot-10hz"];
+
 /// Every scenario name, seed scenarios first.
 pub fn scenario_names() -> Vec<&'static str> {
     SEED_SCENARIOS
         .iter()
         .chain(TEAM_SCENARIOS.iter())
+        .chain(SLOW_ROBOT_SCENARIOS.iter())
         .copied()
         .collect()
 }

@@ -113,6 +113,8 @@ pub struct Observer {
     pub phantom_spot: Option<V2>,
     /// Capture instants so far.
     pub frames: u64,
+    /// Captures per second.
+    pub frame_rate_hz: f64,
     rng: Rng,
     latency_rng: Rng,
     pose_err: PoseError,
@@ -146,6 +148,7 @@ impl Observer {
             cov_scale,
             phantom_spot: None,
             frames: 0,
+            frame_rate_hz: FRAME_RATE_HZ,
             rng,
             latency_rng,
             pose_err,
@@ -159,7 +162,16 @@ impl Observer {
 
     /// True time of the next capture.
     pub fn next_capture_s(&self) -> f64 {
-        self.phase_s + self.frames as f64 / FRAME_RATE_HZ
+        self.phase_s + self.frames as f64 / self.frame_rate_hz
+    }
+
+    /// The same observer capturing `hz` times a second (its phase within a frame kept).
+    pub fn with_frame_rate(mut self, hz: f64) -> Self {
+        if hz.is_finite() && hz > 0.0 {
+            self.phase_s *= self.frame_rate_hz / hz;
+            self.frame_rate_hz = hz;
+        }
+        self
     }
 
     /// Takes the capture at `next_capture_s()`: both cameras, everything they report, each

@@ -34,6 +34,8 @@ pub struct ScenarioSpec {
     pub latency: LatencyProfile,
     /// The robot that also reports a phantom ball (its spot is chosen by the world).
     pub phantom_robot: Option<usize>,
+    /// Capture rate of every observing robot (both cameras at each capture).
+    pub frame_rate_hz: f64,
 }
 
 /// Builds the named scenario, or None for an unknown name.
@@ -60,6 +62,16 @@ pub fn build(
             ..rally(rng, pitch, 20.0)
         },
         "kick-restart" => kick_restart(rng, pitch),
+        // The seed's lone MiRo watching a ball cross its view, its perception loop at 5 Hz
+        // (and at 10 Hz, the seed's own rate): the estimate must not wait for a fast robot.
+        "single-slow-robot" | "single-slow-robot-10hz" => ScenarioSpec {
+            frame_rate_hz: if name == "single-slow-robot" {
+                5.0
+            } else {
+                10.0
+            },
+            ..crate::seed_scenarios::build("seed-1-across", rng, params, pitch)?
+        },
         "match" => football_match(rng, pitch, team_size.unwrap_or(5)),
         _ => return None,
     };
@@ -126,6 +138,7 @@ fn base(duration_s: f64, ball: V2, robots: Vec<RobotSpec>) -> ScenarioSpec {
         repeat: None,
         latency: LatencyProfile::Normal,
         phantom_robot: None,
+        frame_rate_hz: crate::observer::FRAME_RATE_HZ,
     }
 }
 

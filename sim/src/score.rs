@@ -6,7 +6,7 @@
 //! runs are pooled with [`Samples::merge`], and [`Summary::of`] condenses them into the
 //! figures the accuracy report prints.
 
-use crate::{BallEvent, SimRun};
+use crate::{BallEvent, ObsKind, SimRun};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -70,6 +70,10 @@ pub struct Samples {
     pub bounce_missed: usize,
     /// Signed displacement of the estimate towards the phantom, per tick (phantom runs).
     pub phantom_pull_m: Vec<f64>,
+    /// Per run: from the arrival of the first true sighting to the first estimate (at the
+    /// evaluation's tick resolution), and the runs that never had an estimate.
+    pub acquisition_s: Vec<f64>,
+    pub never_acquired: usize,
 }
 
 impl Samples {
@@ -107,6 +111,8 @@ impl Samples {
         self.bounce_time_err_s.extend(o.bounce_time_err_s);
         self.bounce_missed += o.bounce_missed;
         self.phantom_pull_m.extend(o.phantom_pull_m);
+        self.acquisition_s.extend(o.acquisition_s);
+        self.never_acquired += o.never_acquired;
     }
 }
 
@@ -152,6 +158,18 @@ pub fn score(
     s.ticks = records.len();
     s.ticks_possible = n_ticks_possible;
     let phantom = run.phantom.as_ref().map(|(_, spot)| *spot);
+    let first_seen = run
+        .deliveries
+        .iter()
+        .filter(|d| d.kind == ObsKind::Ball)
+        .map(|d| run.t_of(d.arrival))
+        .min_by(f64::total_cmp);
+    if let Some(seen) = first_seen {
+        match records.first() {
+            Some(r) => s.acquisition_s.push((r.t_s - seen).max(0.0)),
+            None => s.never_acquired += 1,
+        }
+    }
     for r in records {
         let truth = run.truth_at(r.t_s);
         let p = truth.position_m;
@@ -316,6 +334,10 @@ pub struct Summary {
     /// Largest displacement of the estimate towards the phantom ball (phantom scenario).
     pub phantom_pull_max_m: Option<f64>,
     pub phantom_pull_p99_m: Option<f64>,
+    /// From the first true sighting's arrival to the first estimate, per run.
+    pub acquisition_s: Spread,
+    pub acquisition_max_s: Option<f64>,
+    pub never_acquired: usize,
 }
 
 impl Summary {
@@ -351,6 +373,9 @@ impl Summary {
                 .then(|| s.bounce_missed as f64 / bounce_scored as f64),
             phantom_pull_max_m: s.phantom_pull_m.iter().copied().reduce(f64::max),
             phantom_pull_p99_m: quantile(&s.phantom_pull_m, 0.99),
+            acquisition_s: Spread::of(&s.acquisition_s),
+            acquisition_max_s: s.acquisition_s.iter().copied().reduce(f64::max),
+            never_acquired: s.never_acquired,
         }
     }
 

@@ -129,6 +129,7 @@ pub fn build(
         repeat: None,
         latency: LatencyProfile::Normal,
         phantom_robot: None,
+        frame_rate_hz: crate::observer::FRAME_RATE_HZ,
     })
 }
 

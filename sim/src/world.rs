@@ -497,6 +497,7 @@ fn make_observers(
                 offset,
                 cov_scale,
             )
+            .with_frame_rate(spec.frame_rate_hz)
         })
         .collect()
 }

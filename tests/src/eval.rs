@@ -190,9 +190,16 @@ pub fn report(scenarios: &[&str], seeds: u64, results: &[RunResult]) -> Report {
             }
         }
     }
-    let seed_names: Vec<&str> = scenarios.iter().copied().filter(|s| !is_team(s)).collect();
-    let team_names: Vec<&str> = scenarios.iter().copied().filter(|s| is_team(s)).collect();
-    let targets = check_targets(&rows, &seed_names, &team_names);
+    let slow = |s: &str| sim::SLOW_ROBOT_SCENARIOS.contains(&s);
+    let pick = |keep: &dyn Fn(&str) -> bool| -> Vec<&str> {
+        scenarios.iter().copied().filter(|s| keep(s)).collect()
+    };
+    let targets = check_targets(
+        &rows,
+        &pick(&|s| !is_team(s) && !slow(s)),
+        &pick(&|s| is_team(s)),
+        &pick(&|s| slow(s)),
+    );
     Report {
         seeds: seeds as usize,
         scenarios: rows,

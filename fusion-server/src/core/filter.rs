@@ -49,6 +49,20 @@ pub struct Innovation {
     pub d2: f64,
 }
 
+/// Which model parameters an observation may correct (the others are "consider" states).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Learn {
+    pub decel: bool,
+    pub restitution: bool,
+}
+
+/// Starting values of the model parameters: (mean, variance) of each.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelPrior {
+    pub decel: (f64, f64),
+    pub restitution: (f64, f64),
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct BallFilter {
     pub x: State,
@@ -64,9 +78,12 @@ impl BallFilter {
         r: &Matrix2<f64>,
         t_s: f64,
         velocity_sigma_mps: f64,
-        params: [(f64, f64); 2],
+        params: ModelPrior,
     ) -> Self {
-        let [(decel, decel_var), (restitution, restitution_var)] = params;
+        let ModelPrior {
+            decel: (decel, decel_var),
+            restitution: (restitution, restitution_var),
+        } = params;
         let x = State::from_column_slice(&[z[0], z[1], 0.0, 0.0, decel, restitution]);
         let mut p = Cov::zeros();
         p.fixed_view_mut::<2, 2>(0, 0).copy_from(r);
@@ -125,16 +142,16 @@ impl BallFilter {
 
     /// Covariance-weighted update with measurement covariance `r`. `learn` says whether the
     /// deceleration and restitution states may be corrected by this observation.
-    pub fn update(&mut self, z: [f64; 2], r: &Matrix2<f64>, learn: [bool; 2]) -> Innovation {
+    pub fn update(&mut self, z: [f64; 2], r: &Matrix2<f64>, learn: Learn) -> Innovation {
         let inn = self.innovation(z, r);
         let Some(s_inv) = inn.s.try_inverse() else {
             return inn;
         };
         let mut k: SMatrix<f64, 6, 2> = self.p.fixed_view::<6, 2>(0, 0) * s_inv;
-        if !learn[0] {
+        if !learn.decel {
             k.row_mut(DECEL).fill(0.0);
         }
-        if !learn[1] {
+        if !learn.restitution {
             k.row_mut(RESTITUTION).fill(0.0);
         }
         self.x += k * inn.y;
@@ -300,7 +317,16 @@ mod tests {
 
     fn filter_at(p: [f64; 2], v: [f64; 2]) -> BallFilter {
         let r = Matrix2::identity() * 1e-3;
-        let mut f = BallFilter::start(p, &r, 0.0, 0.5, [(0.3, 0.01), (0.5, 0.02)]);
+        let mut f = BallFilter::start(
+            p,
+            &r,
+            0.0,
+            0.5,
+            ModelPrior {
+                decel: (0.3, 0.01),
+                restitution: (0.5, 0.02),
+            },
+        );
         f.x[2] = v[0];
         f.x[3] = v[1];
         f
@@ -329,7 +355,14 @@ mod tests {
                 f.predict_to(t, &MotionModel::default(), &bounds(), &noise());
                 prop_assert!(is_symmetric_psd(&f.p));
                 let rm = Matrix2::new(r, 0.3 * r, 0.3 * r, 2.0 * r);
-                f.update([zx, zy], &rm, [true, true]);
+                f.update(
+                    [zx, zy],
+                    &rm,
+                    Learn {
+                        decel: true,
+                        restitution: true,
+                    },
+                );
                 prop_assert!(is_symmetric_psd(&f.p), "{}", f.p);
             }
         }
@@ -415,7 +448,7 @@ mod tests {
         let r = Matrix2::new(1e-2, 0.0, 0.0, 1e-6);
         f.p[(0, 0)] = 1e-3;
         f.p[(1, 1)] = 1e-3;
-        f.update([0.1, 0.1], &r, [false, false]);
+        f.update([0.1, 0.1], &r, Learn::default());
         assert!(f.x[0] > 0.0 && f.x[0] < 0.02, "{}", f.x[0]);
         assert!(f.x[1] > 0.09, "{}", f.x[1]);
         assert_eq!(f.x[DECEL], 0.3);

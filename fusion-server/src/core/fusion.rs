@@ -82,6 +82,11 @@ pub struct FusionCounters {
     pub future: u64,
     /// Observations beyond a wall, dropped by the tracker.
     pub outside_walls: u64,
+    /// Observations that went to hypotheses other than the estimate: waiting for enough
+    /// support to be promoted, or phantoms that never are.
+    pub held_in_hypotheses: u64,
+    /// Kicks the tracker inferred from runs of surprising sightings.
+    pub kicks_inferred: u64,
 }
 
 /// Finite numbers and a symmetric positive-definite covariance: what the filter can use.
@@ -166,6 +171,8 @@ impl Fusion {
     pub fn counters(&self) -> FusionCounters {
         FusionCounters {
             outside_walls: self.tracker().outside_walls(),
+            held_in_hypotheses: self.tracker().held_in_hypotheses(),
+            kicks_inferred: self.tracker().kicks_inferred(),
             ..self.counters
         }
     }
@@ -228,6 +235,7 @@ impl Fusion {
         let input = ObsInput {
             t_s: self.t_of(obs.stamp),
             robot,
+            camera: obs.camera,
             position_m: obs.position_m,
             covariance_m2: r,
             robot_pose: obs.robot_pose,
@@ -435,5 +443,7 @@ impl Fusion {
     }
 }
 
+#[cfg(test)]
+mod acquisition_tests;
 #[cfg(test)]
 mod tests;

@@ -7,14 +7,18 @@
 //! observations from enough distinct robots: that is how a kick or a relocation is followed
 //! within a few frames, and why a phantom seen by one robot does not capture the estimate.
 
-use super::filter::{BallFilter, DECEL, Innovation, ProcessNoise, RESTITUTION};
+use super::filter::{BallFilter, DECEL, Innovation, Learn, ModelPrior, ProcessNoise, RESTITUTION};
 use super::motion::{Bounds, MotionModel, speed};
 use nalgebra::Matrix2;
-use proto::Pose2;
+use proto::{Camera, Pose2};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
+mod acquire;
+mod onset;
 mod trust;
+pub use acquire::{CameraClocks, FrameClock, Hit};
+use onset::{OnsetSighting, Recent};
 pub use trust::RobotTrust;
 
 /// One observation as the core sees it: capture time already on the fusion time axis.
@@ -23,6 +27,7 @@ pub struct ObsInput {
     /// Capture time, seconds since the fusion epoch.
     pub t_s: f64,
     pub robot: Arc<str>,
+    pub camera: Camera,
     pub position_m: [f64; 2],
     pub covariance_m2: Matrix2<f64>,
     pub robot_pose: Pose2,
@@ -42,9 +47,18 @@ pub struct TrackerConfig {
     pub max_tracks: usize,
     /// A hypothesis with no observation for this long is dropped.
     pub candidate_ttl_s: f64,
-    /// Support is counted over this recent window.
+    /// Support is counted over this recent window, stretched to hold `promote_min_hits`
+    /// frames of the slowest robot that saw the hypothesis, up to `promote_window_max_s`.
     pub promote_window_s: f64,
+    pub promote_window_max_s: f64,
     pub promote_min_hits: usize,
+    /// One robot alone confirms a first hypothesis with as many sightings as it captures
+    /// frames in this time (at least `promote_min_hits`, at most twice that)...
+    pub lone_confirm_s: f64,
+    /// ... or takes over from a silent estimate with as many as it captures in this time...
+    pub lone_takeover_s: f64,
+    /// ... seen in at least this share of the frames it captured since its first sighting.
+    pub lone_min_detection_ratio: f64,
     /// When the main track has had no support for this long, a hypothesis seen by a single
     /// (well-behaved) robot may take over.
     pub main_silence_s: f64,
@@ -59,15 +73,27 @@ pub struct TrackerConfig {
     /// observations)...
     pub surprise_chi2: f64,
     /// ... and this many surprising updates in a row mean the ball was kicked (by someone
-    /// no robot reports, or too softly for the gate to refuse): the track gets the same
-    /// extra process noise as after a takeover.
+    /// no robot reports, or too softly for the gate to refuse): its velocity is
+    /// re-initialised from them and it gets the same extra process noise as after a takeover.
     pub surprises_for_kick: usize,
+    /// Two surprising updates whose d² sum to this are already a clear kick.
+    pub onset_chi2: f64,
     /// After a kick or a bounce the ball slides; do not learn the rolling deceleration then.
     pub learn_quiet_s: f64,
     /// Do not learn the deceleration below this speed (the stop dominates).
     pub learn_min_speed_mps: f64,
     pub learn_decel: bool,
     pub learn_restitution: bool,
+    /// The restitution is learned only from well-observed bounces: normal speed in at
+    /// least this, known to `bounce_learn_max_rel_sigma` of itself, the ball seen within
+    /// `bounce_learn_seen_s` before the bounce...
+    pub bounce_learn_min_speed_mps: f64,
+    pub bounce_learn_max_rel_sigma: f64,
+    pub bounce_learn_seen_s: f64,
+    /// ... from the observations within this time after it...
+    pub bounce_learn_window_s: f64,
+    /// ... and one bounce moves the restitution by at most this much.
+    pub restitution_max_step: f64,
     /// Base motion model; its deceleration and restitution are the starting values.
     pub motion: MotionModel,
     pub decel_sigma_mps2: f64,
@@ -91,17 +117,27 @@ impl Default for TrackerConfig {
             max_tracks: 6,
             candidate_ttl_s: 0.6,
             promote_window_s: 0.4,
+            promote_window_max_s: 1.0,
             promote_min_hits: 3,
+            lone_confirm_s: 0.4,
+            lone_takeover_s: 0.25,
+            lone_min_detection_ratio: 0.75,
             main_silence_s: 0.5,
             outlier_rate_max: 0.1,
             near_robot_m: 0.4,
             kick_boost_s: 0.2,
             surprise_chi2: 5.99,
             surprises_for_kick: 3,
+            onset_chi2: 24.0,
             learn_quiet_s: 0.4,
             learn_min_speed_mps: 0.12,
             learn_decel: true,
             learn_restitution: true,
+            bounce_learn_min_speed_mps: 0.15,
+            bounce_learn_max_rel_sigma: 0.3,
+            bounce_learn_seen_s: 0.25,
+            bounce_learn_window_s: 0.5,
+            restitution_max_step: 0.1,
             motion: MotionModel::default(),
             decel_sigma_mps2: 0.1,
             restitution_sigma: 0.15,
@@ -129,14 +165,23 @@ pub struct Track {
     pub filter: BallFilter,
     pub last_hit_s: f64,
     pub born_s: f64,
-    /// Recent supporting observations: (time, robot index).
-    hits: VecDeque<(f64, usize)>,
+    /// Recent supporting observations.
+    hits: VecDeque<Hit>,
     quiet_until_s: f64,
     boost_until_s: f64,
-    /// A wall bounce was flown through and no observation has informed the restitution since.
-    bounce_unlearned: bool,
-    /// Surprising updates in a row (see [`TrackerConfig::surprise_chi2`]).
-    surprises: usize,
+    /// A well-observed wall bounce whose restitution the next observations may learn.
+    bounce: Option<BounceLearning>,
+    /// The last few sightings, each with the filter from just before it (see [`onset`]).
+    recent: VecDeque<Recent>,
+}
+
+/// What the observations after one well-observed bounce may teach.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BounceLearning {
+    restitution_before: f64,
+    until_s: f64,
+    /// An observation has informed this bounce (it is counted once).
+    counted: bool,
 }
 
 impl Track {
@@ -148,13 +193,13 @@ impl Track {
     fn support_since(&self, since_s: f64) -> (usize, usize, Vec<usize>) {
         let mut robots: Vec<usize> = Vec::new();
         let mut n = 0;
-        for (t, r) in self.hits.iter().rev() {
-            if *t < since_s {
+        for h in self.hits.iter().rev() {
+            if h.t_s < since_s {
                 break;
             }
             n += 1;
-            if !robots.contains(r) {
-                robots.push(*r);
+            if !robots.contains(&h.robot) {
+                robots.push(h.robot);
             }
         }
         (n, robots.len(), robots)
@@ -187,6 +232,9 @@ pub struct Tracker {
     outside_walls: u64,
     /// Kicks inferred from surprising updates.
     kicks_inferred: u64,
+    /// Observations that went to hypotheses other than the estimate (waiting for promotion,
+    /// or phantoms).
+    held: u64,
     /// Time of the newest applied observation.
     pub t_s: f64,
 }
@@ -212,6 +260,7 @@ impl Tracker {
             next_id: 1,
             decel_updates: 0,
             kicks_inferred: 0,
+            held: 0,
             restitution_updates: 0,
             outside_walls: 0,
             t_s: f64::NEG_INFINITY,
@@ -262,6 +311,11 @@ impl Tracker {
         self.kicks_inferred
     }
 
+    /// Observations applied to hypotheses that were not the estimate at the time.
+    pub fn held_in_hypotheses(&self) -> u64 {
+        self.held
+    }
+
     /// Observations / bounces that informed the learned deceleration / restitution.
     pub fn learning_counts(&self) -> (u32, u32) {
         (self.decel_updates, self.restitution_updates)
@@ -309,6 +363,7 @@ impl Tracker {
             outlier_rate: 0.0,
             outlier_samples: 0,
             observations: 0,
+            clocks: CameraClocks::default(),
         });
         self.robots.len() - 1
     }
@@ -325,6 +380,7 @@ impl Tracker {
             r.pose = o.robot_pose;
             r.last_obs_s = r.last_obs_s.max(o.t_s);
             r.observations += 1;
+            r.clocks.get_mut(o.camera).tick(o.t_s);
         }
         self.t_s = self.t_s.max(o.t_s);
         self.predict_all(o.t_s);
@@ -348,61 +404,136 @@ impl Tracker {
         self.learn_trust(ri, o);
         self.learn_outlier_rate(ri, o, best.is_some_and(|(i, _)| Some(i) == self.main));
 
-        match best {
-            Some((i, d2)) => {
-                self.update_track(i, ri, o, &r_eff);
-                self.note_surprise(i, d2, o.t_s);
+        let sighting = OnsetSighting {
+            t_s: o.t_s,
+            z: o.position_m,
+            r: r_eff,
+        };
+        // A sighting the main track does not accept may be its kick's: tried against the
+        // main track kicked before it may start (or feed) a hypothesis of its own, unless
+        // an established other track claims it.
+        let claimed = best.filter(|(i, _)| {
+            Some(*i) == self.main || self.tracks[*i].hits.len() >= self.cfg.promote_min_hits
+        });
+        let kicked = match claimed {
+            Some(_) => None,
+            None => self.kick_candidate(&sighting),
+        };
+        match (kicked, best) {
+            (Some((m, filter)), _) => {
+                self.kicked(m, filter, o.t_s);
+                self.remember(m, &sighting);
+                self.update_track(m, ri, o, &r_eff);
             }
-            None => self.spawn(ri, o, &r_eff),
+            (None, Some((i, d2))) => {
+                if let Some(filter) = self.note_onset(i, d2, &sighting) {
+                    self.kicked(i, filter, o.t_s);
+                }
+                self.remember(i, &sighting);
+                self.update_track(i, ri, o, &r_eff);
+            }
+            (None, None) => self.spawn(ri, o, &r_eff),
         }
         self.promote(o.t_s);
         self.prune(o.t_s);
     }
 
     fn predict_all(&mut self, t_s: f64) {
-        let quiet = self.cfg.learn_quiet_s;
+        let cfg = self.cfg.clone();
         for i in 0..self.tracks.len() {
             let noise = self.noise_for(&self.tracks[i]);
             let track = &mut self.tracks[i];
-            if let Some(flight) =
-                track
-                    .filter
-                    .predict_to(t_s, &self.cfg.motion, &self.bounds, &noise)
-                && flight.hits().next().is_some()
-            {
-                // The ball slides for a moment after a bounce.
-                track.quiet_until_s = track.quiet_until_s.max(t_s + quiet);
-                track.bounce_unlearned = true;
-            }
+            let velocity_var = [track.filter.p[(2, 2)], track.filter.p[(3, 3)]];
+            let flown_from_s = track.filter.t_s;
+            let Some(flight) = track
+                .filter
+                .predict_to(t_s, &cfg.motion, &self.bounds, &noise)
+            else {
+                continue;
+            };
+            let Some(hit) = flight.hits().next() else {
+                continue;
+            };
+            // The ball slides for a moment after a bounce.
+            track.quiet_until_s = track.quiet_until_s.max(t_s + cfg.learn_quiet_s);
+            // Only a bounce met at a known speed, by a ball seen just before, tells the
+            // walls' restitution; the others are flown through with it as it is.
+            let v_n = hit.velocity_in[hit.axis].abs();
+            let sigma_n = velocity_var[hit.axis].max(0.0).sqrt();
+            let bounce_t_s = flown_from_s + hit.t_s;
+            let well_observed = v_n >= cfg.bounce_learn_min_speed_mps
+                && sigma_n <= cfg.bounce_learn_max_rel_sigma * v_n
+                && bounce_t_s - track.last_hit_s <= cfg.bounce_learn_seen_s;
+            track.bounce = well_observed.then(|| BounceLearning {
+                restitution_before: track.filter.x[RESTITUTION],
+                until_s: bounce_t_s + cfg.bounce_learn_window_s,
+                counted: false,
+            });
         }
+    }
+
+    /// Track `i` was kicked: its filter is the re-initialised one.
+    fn kicked(&mut self, i: usize, filter: BallFilter, t_s: f64) {
+        let cfg = &self.cfg;
+        let track = &mut self.tracks[i];
+        track.filter = filter;
+        track.recent.clear();
+        track.bounce = None;
+        track.boost_until_s = track.boost_until_s.max(t_s + cfg.kick_boost_s);
+        track.quiet_until_s = track.quiet_until_s.max(t_s + cfg.learn_quiet_s);
     }
 
     fn update_track(&mut self, i: usize, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
         let is_main = self.main == Some(i);
+        if !is_main {
+            self.held += 1;
+        }
         let near = self.near_robot(self.tracks[i].filter.position(), o.t_s);
+        let cfg = &self.cfg;
         let track = &self.tracks[i];
         let learn_decel = is_main
-            && self.cfg.learn_decel
+            && cfg.learn_decel
             && !near
             && o.t_s >= track.quiet_until_s
             && o.t_s >= track.boost_until_s
-            && speed(track.filter.velocity()) > self.cfg.learn_min_speed_mps;
+            && speed(track.filter.velocity()) > cfg.learn_min_speed_mps;
         let learn_restitution = is_main
-            && self.cfg.learn_restitution
+            && cfg.learn_restitution
             && !near
             && o.t_s >= track.boost_until_s
-            && track.filter.p[(0, RESTITUTION)].abs() + track.filter.p[(1, RESTITUTION)].abs()
-                > 1e-9;
+            && track.bounce.is_some_and(|b| o.t_s <= b.until_s);
+        let max_step = cfg.restitution_max_step;
         let track = &mut self.tracks[i];
-        track
-            .filter
-            .update(o.position_m, r_eff, [learn_decel, learn_restitution]);
+        track.filter.update(
+            o.position_m,
+            r_eff,
+            Learn {
+                decel: learn_decel,
+                restitution: learn_restitution,
+            },
+        );
+        if let Some(b) = track.bounce.as_mut().filter(|_| learn_restitution) {
+            let (lo, hi) = (
+                b.restitution_before - max_step,
+                b.restitution_before + max_step,
+            );
+            track.filter.x[RESTITUTION] = track.filter.x[RESTITUTION].clamp(lo, hi);
+            if !b.counted {
+                // Count each bounce once, at the first observation after it that informs it.
+                b.counted = true;
+                self.restitution_updates = self.restitution_updates.saturating_add(1);
+            }
+        }
         track.last_hit_s = track.last_hit_s.max(o.t_s);
-        track.hits.push_back((o.t_s, ri));
+        track.hits.push_back(Hit {
+            t_s: o.t_s,
+            robot: ri,
+            camera: o.camera,
+        });
         while track
             .hits
             .front()
-            .is_some_and(|(t, _)| *t < o.t_s - HIT_HISTORY_S)
+            .is_some_and(|h| h.t_s < o.t_s - HIT_HISTORY_S)
         {
             track.hits.pop_front();
         }
@@ -412,45 +543,23 @@ impl Tracker {
         if learn_decel {
             self.decel_updates = self.decel_updates.saturating_add(1);
         }
-        if learn_restitution && track.bounce_unlearned {
-            // Count each bounce once, at the first observation after it that informs it.
-            track.bounce_unlearned = false;
-            self.restitution_updates = self.restitution_updates.saturating_add(1);
-        }
-    }
-
-    /// Counts surprising updates in a row; enough of them and the track is treated as just
-    /// kicked: its velocity is free to change for a moment.
-    fn note_surprise(&mut self, i: usize, d2: f64, t_s: f64) {
-        let cfg = &self.cfg;
-        let track = &mut self.tracks[i];
-        if d2 <= cfg.surprise_chi2 {
-            track.surprises = 0;
-            return;
-        }
-        track.surprises += 1;
-        if track.surprises >= cfg.surprises_for_kick.max(1) {
-            track.surprises = 0;
-            track.boost_until_s = track.boost_until_s.max(t_s + cfg.kick_boost_s);
-            track.quiet_until_s = track.quiet_until_s.max(t_s + cfg.learn_quiet_s);
-            self.kicks_inferred += 1;
-        }
     }
 
     fn spawn(&mut self, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
+        self.held += 1;
         let cfg = &self.cfg;
         let params = match self.main() {
-            Some(m) => [
-                (m.filter.x[DECEL], m.filter.p[(DECEL, DECEL)]),
-                (
+            Some(m) => ModelPrior {
+                decel: (m.filter.x[DECEL], m.filter.p[(DECEL, DECEL)]),
+                restitution: (
                     m.filter.x[RESTITUTION],
                     m.filter.p[(RESTITUTION, RESTITUTION)],
                 ),
-            ],
-            None => [
-                (cfg.motion.decel_mps2, cfg.decel_sigma_mps2.powi(2)),
-                (cfg.motion.restitution, cfg.restitution_sigma.powi(2)),
-            ],
+            },
+            None => ModelPrior {
+                decel: (cfg.motion.decel_mps2, cfg.decel_sigma_mps2.powi(2)),
+                restitution: (cfg.motion.restitution, cfg.restitution_sigma.powi(2)),
+            },
         };
         let filter = BallFilter::start(
             o.position_m,
@@ -464,10 +573,14 @@ impl Tracker {
             filter,
             last_hit_s: o.t_s,
             born_s: o.t_s,
-            hits: VecDeque::from([(o.t_s, ri)]),
+            hits: VecDeque::from([Hit {
+                t_s: o.t_s,
+                robot: ri,
+                camera: o.camera,
+            }]),
             quiet_until_s: o.t_s + cfg.learn_quiet_s,
-            bounce_unlearned: false,
-            surprises: 0,
+            bounce: None,
+            recent: VecDeque::new(),
             // A new hypothesis is often a ball just kicked and still sliding.
             boost_until_s: o.t_s + cfg.kick_boost_s,
         };
@@ -490,73 +603,20 @@ impl Tracker {
         self.tracks.push(track);
     }
 
-    /// A hypothesis takes over when, since it was born, it has gathered clearly more support
-    /// than the main track: from several robots, or from one credible robot while the main
-    /// track got nothing at all (a kick seen by one robot first). A robot that keeps seeing
-    /// things nobody else sees is not credible, so its phantom never takes over.
-    fn promote(&mut self, t_s: f64) {
+    /// Hypothesis `i` becomes the estimate.
+    fn take_over(&mut self, i: usize, t_s: f64) {
         let cfg = self.cfg.clone();
-        let window = cfg.promote_window_s;
-        let active_robots = self
-            .robots
-            .iter()
-            .filter(|r| t_s - r.last_obs_s < ACTIVE_ROBOT_S)
-            .count();
-        let main_silent = self
-            .main()
-            .is_none_or(|m| t_s - m.last_hit_s > cfg.main_silence_s);
-        let mut best: Option<(usize, usize)> = None;
-        for (i, tr) in self.tracks.iter().enumerate() {
-            if Some(i) == self.main {
-                continue;
-            }
-            let since = tr.born_s.max(t_s - window);
-            let (hits, n_robots, robots) = tr.support_since(since);
-            let main_hits = self.main().map_or(0, |m| m.support_since(since).0);
-            if hits < cfg.promote_min_hits || 2 * main_hits >= hits {
-                continue;
-            }
-            // Before there is any estimate, a steady stream of sightings is needed: a
-            // phantom flickers, and one stray report from another robot must not vouch
-            // for it. After that, two robots agreeing suffice.
-            if self.main.is_none() {
-                let steady = tr.hits.iter().filter(|(t, _)| *t >= since).fold(
-                    Vec::<(usize, usize)>::new(),
-                    |mut per_robot, (_, r)| {
-                        match per_robot.iter_mut().find(|(id, _)| id == r) {
-                            Some((_, n)) => *n += 1,
-                            None => per_robot.push((*r, 1)),
-                        }
-                        per_robot
-                    },
-                );
-                let steady_robots = steady.iter().filter(|(_, n)| *n >= 2).count();
-                if steady_robots < 2 && hits < 2 * cfg.promote_min_hits {
-                    continue;
-                }
-            }
-            let diverse = n_robots >= active_robots.clamp(1, 2);
-            let credible = robots
-                .iter()
-                .all(|r| self.robots[*r].credible(cfg.outlier_rate_max));
-            let unopposed = main_hits == 0 || main_silent;
-            let lone_ok = unopposed && credible && hits > cfg.promote_min_hits;
-            if (diverse || lone_ok) && best.is_none_or(|(_, h)| hits > h) {
-                best = Some((i, hits));
-            }
-        }
-        let Some((i, _)) = best else { return };
         if let Some(old) = self.main() {
             // The floor and the walls did not change: keep what was learned about them.
-            let keep = [
-                (old.filter.x[DECEL], old.filter.p[(DECEL, DECEL)]),
-                (
+            let keep = ModelPrior {
+                decel: (old.filter.x[DECEL], old.filter.p[(DECEL, DECEL)]),
+                restitution: (
                     old.filter.x[RESTITUTION],
                     old.filter.p[(RESTITUTION, RESTITUTION)],
                 ),
-            ];
+            };
             let f = &mut self.tracks[i].filter;
-            for (k, (v, var)) in [(DECEL, keep[0]), (RESTITUTION, keep[1])] {
+            for (k, (v, var)) in [(DECEL, keep.decel), (RESTITUTION, keep.restitution)] {
                 f.x[k] = v;
                 for j in 0..6 {
                     f.p[(k, j)] = 0.0;

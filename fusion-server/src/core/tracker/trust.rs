@@ -28,6 +28,8 @@ pub struct RobotTrust {
     /// Observations that informed `outlier_rate`.
     pub outlier_samples: u32,
     pub observations: u64,
+    /// Frame intervals of its cameras, learned from the stamps it reports.
+    pub clocks: super::CameraClocks,
 }
 
 impl RobotTrust {
@@ -86,8 +88,8 @@ impl Tracker {
             .hits
             .iter()
             .rev()
-            .take_while(|(t, _)| *t > t_s - OUTLIER_CONFIRM_S)
-            .any(|(_, r)| *r != ri);
+            .take_while(|h| h.t_s > t_s - OUTLIER_CONFIRM_S)
+            .any(|h| h.robot != ri);
         if !confirmed_by_others {
             return;
         }

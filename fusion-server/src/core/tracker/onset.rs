@@ -1,0 +1,214 @@
+//! Kick onsets: a ball that starts moving (or changes course) without anybody reporting it.
+//!
+//! The first sightings after a kick are *surprising*: farther from the prediction than
+//! noise explains, in one direction. A track keeps its last few sightings, each with the
+//! filter as it was just before it. When a run of surprising sightings makes a kick clear
+//! (`surprises_for_kick` in a row, or two whose d² sum to `onset_chi2` while the ball
+//! recedes from where it was), the kick's time is found as a change point: for each recent
+//! sighting, the filter from just before it, its velocity made unknown, is re-fed the
+//! sightings since; the sightings before it keep the cost they had. The cheapest (smallest
+//! total d²) start wins, and its filter replaces the track's. The position before the kick
+//! anchors the estimate and the sightings since give the velocity at once, instead of the
+//! filter slowly bending its old "at rest" velocity towards the data; and the first
+//! sightings after a kick that were not yet surprising are not mistaken for the ball at
+//! rest.
+//!
+//! A sighting that no track accepts but lies near the main track is kept too: a kick whose
+//! second sighting is already beyond the gate is still the same ball.
+
+use super::{Track, Tracker};
+use crate::core::filter::{BallFilter, Learn, ProcessNoise};
+use nalgebra::{Matrix2, Vector2};
+
+/// Sightings a track keeps for change-point search...
+const RECENT_MAX: usize = 12;
+/// ... from at most this far back.
+const RECENT_S: f64 = 0.4;
+/// A kick may have started up to this many sightings before the first surprising one.
+const ONSET_LOOKBACK: usize = 4;
+
+/// One sighting of a track and the filter as it was just before it.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Recent {
+    pub before: BallFilter,
+    pub t_s: f64,
+    pub z: [f64; 2],
+    pub r: Matrix2<f64>,
+    /// Innovation d² against `before`.
+    pub d2: f64,
+}
+
+/// A sighting as the onset logic needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct OnsetSighting {
+    pub t_s: f64,
+    pub z: [f64; 2],
+    pub r: Matrix2<f64>,
+}
+
+impl Tracker {
+    /// The process noise for flying a re-initialised (just kicked) filter.
+    fn kick_noise(&self) -> ProcessNoise {
+        let cfg = &self.cfg;
+        let mut noise = cfg.noise;
+        noise.accel_m2ps3 = noise.accel_m2ps3.max(cfg.near_robot_accel_m2ps3);
+        noise.rest_vel_m2ps3 = noise.rest_vel_m2ps3.max(cfg.near_robot_accel_m2ps3);
+        noise.rest_velocity_tau_s = f64::INFINITY;
+        noise
+    }
+
+    /// `before` with its velocity made unknown, fed `sightings` and then flown to `t_s`:
+    /// the filter and the sum of the sightings' d².
+    fn refly<'a>(
+        &self,
+        before: &BallFilter,
+        sightings: impl Iterator<Item = &'a Recent>,
+        t_s: f64,
+    ) -> (BallFilter, f64) {
+        let mut f = before.clone();
+        let vv = self.cfg.spawn_velocity_sigma_mps.powi(2);
+        for k in 2..4 {
+            for j in 0..6 {
+                f.p[(k, j)] = 0.0;
+                f.p[(j, k)] = 0.0;
+            }
+            f.p[(k, k)] = vv;
+        }
+        let noise = self.kick_noise();
+        let mut cost = 0.0;
+        for s in sightings {
+            f.predict_to(s.t_s, &self.cfg.motion, &self.bounds, &noise);
+            cost += f.update(s.z, &s.r, Learn::default()).d2;
+        }
+        f.predict_to(t_s, &self.cfg.motion, &self.bounds, &noise);
+        (f, cost)
+    }
+
+    /// Whether the trailing run of surprising sightings of `track`, with `now` (d² `d2`)
+    /// appended, makes a kick clear; returns where the run starts in `track.recent`.
+    fn onset_run(&self, track: &Track, now: &OnsetSighting, d2: f64) -> Option<usize> {
+        let cfg = &self.cfg;
+        if d2 <= cfg.surprise_chi2 {
+            return None;
+        }
+        let recent = &track.recent;
+        let mut start = recent.len();
+        while start > 0
+            && recent[start - 1].d2 > cfg.surprise_chi2
+            && now.t_s - recent[start - 1].t_s <= RECENT_S
+        {
+            start -= 1;
+        }
+        let first = recent.get(start)?;
+        let residual = |t_s: f64, z: [f64; 2]| {
+            let mut f = first.before.clone();
+            f.predict_to(t_s, &cfg.motion, &self.bounds, &self.kick_noise());
+            Vector2::new(z[0] - f.x[0], z[1] - f.x[1])
+        };
+        let y_first = Vector2::new(
+            first.z[0] - first.before.x[0],
+            first.z[1] - first.before.x[1],
+        );
+        let y_now = residual(now.t_s, now.z);
+        let aligned = recent
+            .iter()
+            .skip(start)
+            .map(|s| residual(s.t_s, s.z))
+            .chain(std::iter::once(y_now))
+            .all(|y| y.dot(&y_first) > 0.0);
+        if !aligned {
+            return None;
+        }
+        let n = recent.len() - start + 1;
+        let d2_sum: f64 = recent.iter().skip(start).map(|s| s.d2).sum::<f64>() + d2;
+        let receding = y_now.norm() >= y_first.norm();
+        let clear =
+            n >= cfg.surprises_for_kick.max(2) || (n >= 2 && receding && d2_sum >= cfg.onset_chi2);
+        clear.then_some(start)
+    }
+
+    /// The kicked filter of `track` at `now`, its start chosen among the sightings up to
+    /// [`ONSET_LOOKBACK`] before the run's first: the filter (without `now` applied) and
+    /// the d² of `now` against it.
+    fn kicked_filter(
+        &self,
+        track: &Track,
+        run_start: usize,
+        now: &OnsetSighting,
+    ) -> Option<(BallFilter, f64)> {
+        let recent = &track.recent;
+        let lo = run_start.saturating_sub(ONSET_LOOKBACK);
+        (lo..=run_start.min(recent.len().saturating_sub(1)))
+            .map(|j| {
+                let kept: f64 = recent.iter().take(j).skip(lo).map(|s| s.d2).sum();
+                let (f, cost) = self.refly(&recent[j].before, recent.iter().skip(j), now.t_s);
+                let d2_now = f.innovation(now.z, &now.r).d2;
+                (f, d2_now, kept + cost + d2_now)
+            })
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+            .map(|(f, d2_now, _)| (f, d2_now))
+    }
+
+    /// Keeps a sighting of track `i`, before its filter is updated by it.
+    pub(super) fn remember(&mut self, i: usize, s: &OnsetSighting) {
+        let track = &mut self.tracks[i];
+        let d2 = track.filter.innovation(s.z, &s.r).d2;
+        track.recent.push_back(Recent {
+            before: track.filter.clone(),
+            t_s: s.t_s,
+            z: s.z,
+            r: s.r,
+            d2,
+        });
+        while track.recent.len() > RECENT_MAX
+            || track
+                .recent
+                .front()
+                .is_some_and(|f| s.t_s - f.t_s > RECENT_S)
+        {
+            track.recent.pop_front();
+        }
+    }
+
+    /// For a sighting that track `i` accepted with d² `d2` (before the update): the
+    /// re-initialised filter when it makes a kick clear.
+    pub(super) fn note_onset(
+        &mut self,
+        i: usize,
+        d2: f64,
+        s: &OnsetSighting,
+    ) -> Option<BallFilter> {
+        let track = &self.tracks[i];
+        let start = self.onset_run(track, s, d2)?;
+        let (f, _) = self.kicked_filter(track, start, s)?;
+        self.kicks_inferred += 1;
+        Some(f)
+    }
+
+    /// For a sighting no track accepts: the main track re-initialised as kicked, when a
+    /// run of surprising sightings ending in this one makes the kick clear and the kicked
+    /// filter accepts it. A sighting near the main track that is not (yet) a kick is kept,
+    /// so that the next one may confirm it.
+    pub(super) fn kick_candidate(&mut self, s: &OnsetSighting) -> Option<(usize, BallFilter)> {
+        let m = self.main?;
+        let track = &self.tracks[m];
+        let inn = track.filter.innovation(s.z, &s.r);
+        if inn.y.norm() >= self.cfg.max_innovation_m {
+            return None;
+        }
+        let kicked = self
+            .onset_run(track, s, inn.d2)
+            .and_then(|start| self.kicked_filter(track, start, s))
+            .filter(|(_, d2)| *d2 < self.cfg.gate_chi2);
+        match kicked {
+            Some((f, _)) => {
+                self.kicks_inferred += 1;
+                Some((m, f))
+            }
+            None => {
+                self.remember(m, s);
+                None
+            }
+        }
+    }
+}
