@@ -119,7 +119,7 @@ impl Default for TrackerConfig {
             promote_window_s: 0.4,
             promote_window_max_s: 1.0,
             promote_min_hits: 3,
-            lone_confirm_s: 0.4,
+            lone_confirm_s: 0.3,
             lone_takeover_s: 0.25,
             lone_min_detection_ratio: 0.75,
             main_silence_s: 0.5,
@@ -408,6 +408,7 @@ impl Tracker {
             t_s: o.t_s,
             z: o.position_m,
             r: r_eff,
+            robot: ri,
         };
         // A sighting the main track does not accept may be its kick's: tried against the
         // main track kicked before it may start (or feed) a hypothesis of its own, unless

@@ -26,6 +26,9 @@ const RECENT_MAX: usize = 12;
 const RECENT_S: f64 = 0.4;
 /// A kick may have started up to this many sightings before the first surprising one.
 const ONSET_LOOKBACK: usize = 4;
+/// An onset follows a sighting that fitted, at most this long before the first surprising
+/// one: a track nobody has seen for a while is found again by a new hypothesis, not kicked.
+const ONSET_WATCHED_S: f64 = 0.15;
 
 /// One sighting of a track and the filter as it was just before it.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,6 +39,8 @@ pub(super) struct Recent {
     pub r: Matrix2<f64>,
     /// Innovation d² against `before`.
     pub d2: f64,
+    /// Index of the robot that reported it.
+    pub robot: usize,
 }
 
 /// A sighting as the onset logic needs it.
@@ -44,6 +49,7 @@ pub(super) struct OnsetSighting {
     pub t_s: f64,
     pub z: [f64; 2],
     pub r: Matrix2<f64>,
+    pub robot: usize,
 }
 
 impl Tracker {
@@ -100,6 +106,20 @@ impl Tracker {
             start -= 1;
         }
         let first = recent.get(start)?;
+        let watched = start
+            .checked_sub(1)
+            .is_some_and(|k| first.t_s - recent[k].t_s <= ONSET_WATCHED_S);
+        // A robot known to see what the others do not cannot kick the ball alone.
+        let credible = |r: usize| {
+            self.robots
+                .get(r)
+                .is_some_and(|t| t.credible(cfg.outlier_rate_max))
+        };
+        let all_credible =
+            recent.iter().skip(start).all(|s| credible(s.robot)) && credible(now.robot);
+        if !watched || !all_credible {
+            return None;
+        }
         let residual = |t_s: f64, z: [f64; 2]| {
             let mut f = first.before.clone();
             f.predict_to(t_s, &cfg.motion, &self.bounds, &self.kick_noise());
@@ -159,6 +179,7 @@ impl Tracker {
             z: s.z,
             r: s.r,
             d2,
+            robot: s.robot,
         });
         while track.recent.len() > RECENT_MAX
             || track
