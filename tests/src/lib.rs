@@ -9,6 +9,8 @@ pub mod methods;
 pub mod plot;
 pub mod plots;
 pub mod report;
+pub mod track_events;
+pub mod track_fixtures;
 pub mod tracks;
 pub mod vision;
 pub mod vision_report;
