@@ -11,6 +11,7 @@ pub mod plots;
 pub mod report;
 pub mod track_events;
 pub mod track_fixtures;
+pub mod track_obs;
 pub mod tracks;
 pub mod vision;
 pub mod vision_report;
