@@ -23,8 +23,9 @@ use sim::score::{HORIZONS_S, TickRecord};
 pub const TICK_S: f64 = 0.02;
 /// A state is scored for bounce timing when the track's next bounce is this close ahead.
 pub const BOUNCE_WINDOW_S: f64 = 1.0;
-/// The track moves faster than this: a `stopped` state is wrong.
+/// The track moves faster than this (over the last [`RECENT_S`]): a `stopped` state is wrong.
 pub const MOVING_MPS: f64 = 0.1;
+pub const RECENT_S: f64 = 0.05;
 
 /// A method the tracks evaluation compares.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -305,7 +306,7 @@ pub fn score_ticks(
             }
         }
         if let Some(status) = tick.status
-            && events.speed_at(r.t_s).is_some_and(|v| v > MOVING_MPS)
+            && recent_speed(track, r.t_s).is_some_and(|v| v > MOVING_MPS)
         {
             s.moving_states += 1;
             if status == BallStatus::Stopped {
@@ -313,7 +314,7 @@ pub fn score_ticks(
             }
         }
     }
-    s.onset_lag_s = onset_lags(events, &run.ticks);
+    s.onset_lag_s = onset_lags(track, events, &run.ticks);
     if let Some(first) = run.ticks.first() {
         s.first_estimate_s.push(first.record.t_s - track.start_s());
     }
@@ -325,9 +326,16 @@ pub fn score_ticks(
     s
 }
 
+/// The track's speed over the last [`RECENT_S`] before `t_s`: causal, so that a kick does
+/// not show as motion before it happens (a centred smoothing would).
+fn recent_speed(track: &Track, t_s: f64) -> Option<f64> {
+    let (now, then) = (track.position_at(t_s)?, track.position_at(t_s - RECENT_S)?);
+    Some(dist(now, then) / RECENT_S)
+}
+
 /// For every push of a ball whose last state before it was `stopped`: from the track's
 /// first tick faster than [`MOVING_MPS`] to the first state that is not `stopped`.
-fn onset_lags(events: &TrackEvents, ticks: &[TrackTick]) -> Vec<f64> {
+fn onset_lags(track: &Track, events: &TrackEvents, ticks: &[TrackTick]) -> Vec<f64> {
     let mut out = Vec::new();
     for (from, _) in &events.pushes {
         let i = ticks.partition_point(|t| t.record.t_s < *from);
@@ -337,11 +345,8 @@ fn onset_lags(events: &TrackEvents, ticks: &[TrackTick]) -> Vec<f64> {
         if before.status != Some(BallStatus::Stopped) {
             continue;
         }
-        let moving = |t: &&TrackTick| {
-            events
-                .speed_at(t.record.t_s)
-                .is_some_and(|v| v > MOVING_MPS)
-        };
+        let moving =
+            |t: &&TrackTick| recent_speed(track, t.record.t_s).is_some_and(|v| v > MOVING_MPS);
         let Some(on) = ticks[i..].iter().find(moving) else {
             continue;
         };

@@ -273,22 +273,28 @@ pub fn markdown(rep: &TracksReport) -> String {
         ));
     }
     if rep.tracks.len() > 1 || rep.setup.seeds > 1 {
-        s.push_str("\nOver several tracks or seeds: medians of the per-track values.\n");
+        s.push_str(
+            "\nFirst estimate, deceleration and restitution: medians over the tracks × seeds.\n",
+        );
     }
     s
 }
 
-/// The tracks that were scored, and the files they came from.
+/// The files read and where they came from, and the tracks that were scored.
 pub fn markdown_tracks(rep: &TracksReport) -> String {
-    let mut s = String::from("| file | source | tracks | rows (skipped) |\n|---|---|---|---|\n");
+    let mut s = String::from("| file | tracks | rows (skipped) |\n|---|---|---|\n");
     for f in &rep.files {
         s.push_str(&format!(
-            "| `{}` | {} | {} | {} ({}) |\n",
+            "| `{}` | {} | {} ({}) |\n",
+            f.file, f.tracks, f.rows, f.skipped_rows
+        ));
+    }
+    s.push_str("\nWhere the data came from (the files' `# source:` lines):\n\n");
+    for f in &rep.files {
+        s.push_str(&format!(
+            "- `{}`: {}\n",
             f.file,
-            f.source.as_deref().unwrap_or("not stated"),
-            f.tracks,
-            f.rows,
-            f.skipped_rows
+            f.source.as_deref().unwrap_or("not stated in the file")
         ));
     }
     s.push_str(

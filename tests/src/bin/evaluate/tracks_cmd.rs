@@ -261,7 +261,7 @@ pub fn run(args: &TrackArgs, out: &Outputs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The generated section: the command, the data's sources, the observers, the tables.
+/// The generated section: the command, the observers, the tables (with the data's sources).
 fn doc_section(
     args: &TrackArgs,
     out: &Outputs,
@@ -271,29 +271,14 @@ fn doc_section(
     secs: f64,
 ) -> String {
     let o = &rep.setup.observers;
-    let sources: Vec<String> = rep
-        .files
-        .iter()
-        .map(|f| {
-            format!(
-                "`{}`: {}",
-                f.file,
-                f.source
-                    .as_deref()
-                    .unwrap_or("source not stated in the file")
-            )
-        })
-        .collect();
     format!(
-        "Produced by `{}` ({n_tracks} tracks × {} seeds, {secs:.0} s on {} worker threads).\n\n\
-         Track data: {}.\n\n\
+        "Produced by `{}` ({n_tracks} tracks × {} seeds, {secs:.1} s on {} worker threads).\n\n\
          Observed by {} robots at {} Hz each, σ = {} m per axis, {:.0} ms mean latency, \
          {:.0} % dropout; states every {:.0} ms on a {} m × {} m pitch (ball radius {} m).\n\n\
          {tables}",
         args.command(out),
         out.seeds,
         out.jobs,
-        sources.join("; "),
         o.robots,
         o.rate_hz,
         o.noise_m,
