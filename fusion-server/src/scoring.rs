@@ -5,6 +5,7 @@
 use crate::core::motion::{Bounds, MotionModel, fly};
 use crate::core::predict::stop;
 use crate::core::{Fusion, FusionConfig};
+use proto::Stamp;
 use sim::score::{BOUNCE_LOOKAHEAD_S, HORIZONS_S, TickRecord, tick_times_s};
 use sim::{Delivery, SimRun};
 
@@ -82,11 +83,34 @@ pub fn drive<S>(
     ingest: impl Fn(&mut S, &Delivery),
     query: impl Fn(&mut S, f64) -> Option<TickRecord>,
 ) -> Vec<TickRecord> {
+    drive_ticks(
+        &run.deliveries,
+        run.start,
+        tick_times_s(run.duration_s),
+        keep,
+        state,
+        ingest,
+        query,
+    )
+}
+
+/// [`drive`] over any arrival-ordered deliveries and ticks (seconds after `start`): before
+/// each tick, every delivery that has arrived by then is ingested (if `keep` accepts it);
+/// then the state is queried.
+pub fn drive_ticks<S, R>(
+    deliveries: &[Delivery],
+    start: Stamp,
+    ticks_s: impl IntoIterator<Item = f64>,
+    keep: impl Fn(&Delivery) -> bool,
+    state: &mut S,
+    ingest: impl Fn(&mut S, &Delivery),
+    query: impl Fn(&mut S, f64) -> Option<R>,
+) -> Vec<R> {
     let mut out = Vec::new();
     let mut next = 0;
-    for t_s in tick_times_s(run.duration_s) {
-        let at = run.stamp_of(t_s);
-        while let Some(d) = run.deliveries.get(next).filter(|d| d.arrival <= at) {
+    for t_s in ticks_s {
+        let at = start.offset_secs(t_s);
+        while let Some(d) = deliveries.get(next).filter(|d| d.arrival <= at) {
             if keep(d) {
                 ingest(state, d);
             }

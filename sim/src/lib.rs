@@ -27,7 +27,7 @@ mod physics;
 pub mod render;
 mod render_objects;
 pub mod render_scene;
-mod rng;
+pub mod rng;
 mod robots;
 mod run;
 mod scenario;

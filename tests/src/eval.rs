@@ -116,8 +116,25 @@ pub fn for_each_run<T: Send>(
         .iter()
         .flat_map(|s| (0..seeds).map(move |k| (*s, k)))
         .collect();
-    let total = work.len();
-    let queue = Mutex::new(work.into_iter());
+    for_each(
+        &work,
+        jobs,
+        |(name, seed)| format!("{name} seed {seed}"),
+        |(name, seed)| job(name, *seed),
+    )
+}
+
+/// Calls `job` for every item on `jobs` threads, with a progress line on stderr naming
+/// each finished item by `label`; the results come in completion order. The first error
+/// fails the whole.
+pub fn for_each<I: Sync, T: Send>(
+    items: &[I],
+    jobs: usize,
+    label: impl Fn(&I) -> String + Sync,
+    job: impl Fn(&I) -> anyhow::Result<T> + Sync,
+) -> anyhow::Result<Vec<T>> {
+    let total = items.len();
+    let queue = Mutex::new(items.iter());
     let results = Mutex::new(Vec::with_capacity(total));
     let errors = Mutex::new(Vec::new());
     let started = Instant::now();
@@ -126,23 +143,22 @@ pub fn for_each_run<T: Send>(
             scope.spawn(|| {
                 loop {
                     let next = queue.lock().map(|mut q| q.next()).unwrap_or(None);
-                    let Some((name, seed)) = next else { break };
-                    match job(name, seed) {
+                    let Some(item) = next else { break };
+                    match job(item) {
                         Ok(r) => {
                             if let Ok(mut res) = results.lock() {
                                 res.push(r);
                                 eprint!(
-                                    "\r[{:>4}/{total}] {:<24} seed {:>3}  {:>6.1} s",
+                                    "\r[{:>4}/{total}] {:<36}  {:>6.1} s",
                                     res.len(),
-                                    name,
-                                    seed,
+                                    label(item),
                                     started.elapsed().as_secs_f64()
                                 );
                             }
                         }
                         Err(e) => {
                             if let Ok(mut errs) = errors.lock() {
-                                errs.push(format!("{name} seed {seed}: {e:#}"));
+                                errs.push(format!("{}: {e:#}", label(item)));
                             }
                         }
                     }

@@ -1,5 +1,6 @@
 //! System tests and the evaluation harness: the simulated world against the fusion core,
-//! the seed's method and an oracle, scored against ground truth.
+//! the seed's method and an oracle, scored against ground truth; and recorded ball tracks
+//! (`tracks`, `track_*`), observed by simulated robots and scored against themselves.
 
 pub mod baseline;
 pub mod bench;
@@ -8,5 +9,11 @@ pub mod methods;
 pub mod plot;
 pub mod plots;
 pub mod report;
+pub mod track_eval;
+pub mod track_events;
+pub mod track_fixtures;
+pub mod track_obs;
+pub mod track_report;
+pub mod tracks;
 pub mod vision;
 pub mod vision_report;

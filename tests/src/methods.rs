@@ -3,7 +3,8 @@
 
 use crate::baseline::SeedBaseline;
 use fusion_server::core::FusionConfig;
-pub use fusion_server::scoring::{drive, fusion_config, model_record, run_fusion};
+pub use fusion_server::scoring::{drive, drive_ticks, fusion_config, model_record, run_fusion};
+use proto::Stamp;
 use sim::score::{HORIZONS_S, TickRecord};
 use sim::{Delivery, SimRun};
 
@@ -52,19 +53,22 @@ pub fn run_baseline(run: &SimRun, keep: impl Fn(&Delivery) -> bool) -> Vec<TickR
         keep,
         &mut baseline,
         |b, d| b.ingest(d.arrival, &d.obs),
-        |b, t_s| {
-            let (p, v) = b.query(run.stamp_of(t_s))?;
-            Some(TickRecord {
-                t_s,
-                position: p,
-                velocity: v,
-                predicted: HORIZONS_S
-                    .iter()
-                    .map(|h| [p[0] + h * v[0], p[1] + h * v[1]])
-                    .collect(),
-                stop: None,
-                first_bounce_t_s: None,
-            })
-        },
+        |b, t_s| baseline_record(b, run.stamp_of(t_s), t_s),
     )
+}
+
+/// The seed's estimate at `at` (`t_s` on the run's clock), its predictions straight lines.
+pub fn baseline_record(b: &mut SeedBaseline, at: Stamp, t_s: f64) -> Option<TickRecord> {
+    let (p, v) = b.query(at)?;
+    Some(TickRecord {
+        t_s,
+        position: p,
+        velocity: v,
+        predicted: HORIZONS_S
+            .iter()
+            .map(|h| [p[0] + h * v[0], p[1] + h * v[1]])
+            .collect(),
+        stop: None,
+        first_bounce_t_s: None,
+    })
 }

@@ -2,6 +2,11 @@
 //! scored against the simulator's ground truth. Writes JSON, prints a markdown table and
 //! the targets, and draws PNG plots. With `--vision`, the seed's scenarios are rendered
 //! through the robots' cameras and the real agent pipeline supplies the observations.
+//! With `--tracks`, recorded ball tracks are observed by simulated robots and every method
+//! is scored against the tracks themselves (`tracks_cmd`).
+
+#[path = "evaluate/tracks_cmd.rs"]
+mod tracks_cmd;
 
 use anyhow::Context;
 use clap::Parser;
@@ -13,7 +18,8 @@ use system_tests::{eval, plots, report};
 #[derive(Debug, Parser)]
 #[command(about = "Evaluate the fusion core against the seed's method and an oracle")]
 struct Args {
-    /// Seeds per scenario (0..N); default 20, or 5 with `--vision`.
+    /// Seeds per scenario (0..N); default 20, or 5 with `--vision`; with `--tracks`, the
+    /// observation draws per track (default 1).
     #[arg(long)]
     seeds: Option<u64>,
     /// Render the cameras and run the robot agent's pipeline for the observations (default
@@ -44,6 +50,8 @@ struct Args {
     /// Worker threads.
     #[arg(long, default_value_t = 2)]
     jobs: usize,
+    #[command(flatten)]
+    tracks: tracks_cmd::TrackArgs,
 }
 
 fn main() {
@@ -72,6 +80,17 @@ fn scenario_list(args: &Args, default: Vec<&'static str>) -> anyhow::Result<Vec<
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
+    if !args.tracks.tracks.is_empty() {
+        let out = tracks_cmd::Outputs {
+            seeds: args.seeds.unwrap_or(1),
+            jobs: args.jobs,
+            json: args.json.as_deref(),
+            markdown: args.markdown.as_deref(),
+            doc: args.doc.as_deref(),
+            plots: &args.plots,
+        };
+        return tracks_cmd::run(&args.tracks, &out);
+    }
     if args.vision {
         return run_vision(&args);
     }
