@@ -138,7 +138,7 @@ impl FileConfig {
             if !(p.length_m > 0.0 && p.width_m > 0.0 && p.ball_radius_m > 0.0) {
                 return Err(ConfigError::Invalid("pitch sizes must be positive".into()));
             }
-            cfg.engine.fusion.pitch = p.clone();
+            cfg.engine.fusion.set_pitch(p.clone());
         }
         let f = &self.fusion;
         if let Some(v) = f.late_window_s {
@@ -209,6 +209,44 @@ max_mb = 200
             let f = FileConfig::parse(b, Path::new("docs/operations.md"))?;
             f.apply(&mut ServeConfig::default())?;
         }
+        Ok(())
+    }
+
+    /// The pitch's wall restitution is where the filter starts; the default pitch's is the
+    /// motion model's default, so nothing changes without a `[pitch]`.
+    #[test]
+    fn the_pitch_restitution_is_the_filters_starting_value() -> Result<(), ConfigError> {
+        use crate::core::{Fusion, FusionConfig};
+        use proto::{Camera, Observation, Pose2, Stamp};
+        assert_eq!(
+            FusionConfig::default(),
+            FusionConfig::for_pitch(Pitch::default())
+        );
+        let text = "[pitch]\nversion = 1\nlength_m = 5.0\nwidth_m = 3.0\n\
+                    walls = [\"x_max\", \"x_min\"]\nwall_restitution = 0.8\nball_radius_m = 0.05\n";
+        let mut cfg = ServeConfig::default();
+        FileConfig::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
+        assert_eq!(cfg.engine.fusion.tracker.motion.restitution, 0.8);
+        let t0 = Stamp(1_800_000_000_000_000_000);
+        let mut fusion = Fusion::new(cfg.engine.fusion.clone());
+        for seq in 0..10 {
+            let stamp = t0.offset_secs(seq as f64 / 15.0);
+            let obs = Observation {
+                version: proto::VERSION,
+                robot_id: "miro1".into(),
+                seq,
+                camera: Camera::Left,
+                stamp,
+                position_m: [0.5, 0.2],
+                covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
+                confidence: 0.9,
+                robot_pose: Pose2::default(),
+                pixel: None,
+            };
+            fusion.ingest(&obs, stamp);
+        }
+        let state = fusion.ball_state(t0.offset_secs(1.0)).expect("a ball");
+        assert_eq!(state.model.wall_restitution, 0.8);
         Ok(())
     }
 

@@ -183,10 +183,8 @@ pub fn replay(
     if truth.has_run() {
         let run = truth.finish(arrivals)?;
         // The configured fusion, on the run's pitch.
-        let cfg = crate::core::FusionConfig {
-            pitch: run.pitch.clone(),
-            ..opts.engine.fusion.clone()
-        };
+        let mut cfg = opts.engine.fusion.clone();
+        cfg.set_pitch(run.pitch.clone());
         let records = run_fusion(&run, cfg.clone(), |_| true);
         let without = run
             .phantom
