@@ -1,6 +1,7 @@
 //! The server's configuration file (TOML). Every field is optional; command-line flags
 //! override the file, and the file overrides the defaults.
 
+use crate::core::FusionConfig;
 use crate::net::NetConfig;
 use crate::serve::ServeConfig;
 use proto::Pitch;
@@ -44,6 +45,17 @@ pub struct FusionFile {
     pub late_window_s: Option<f64>,
     pub horizon_s: Option<f64>,
     pub lost_after_s: Option<f64>,
+    /// Starting rolling deceleration of the ball (the restitution starts at the pitch's
+    /// `wall_restitution`).
+    pub decel_mps2: Option<f64>,
+    /// Uncertainty (one standard deviation) of the starting deceleration...
+    pub decel_sigma_mps2: Option<f64>,
+    /// ... and of the starting restitution.
+    pub restitution_sigma: Option<f64>,
+    /// Learn the deceleration from the ball's rolling; off keeps the starting value.
+    pub learn_decel: Option<bool>,
+    /// Learn the restitution from wall bounces; off keeps the starting value.
+    pub learn_restitution: Option<bool>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -84,15 +96,6 @@ impl FileConfig {
 
     /// Applies the file's settings over `cfg`.
     pub fn apply(&self, cfg: &mut ServeConfig) -> Result<(), ConfigError> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(v)
-            } else {
-                Err(ConfigError::Invalid(format!(
-                    "{name} must be positive, got {v}"
-                )))
-            }
-        };
         if let Some(id) = &self.server_id {
             if !proto::is_valid_id(id) {
                 return Err(ConfigError::Invalid(format!(
@@ -140,15 +143,48 @@ impl FileConfig {
             }
             cfg.engine.fusion.set_pitch(p.clone());
         }
-        let f = &self.fusion;
-        if let Some(v) = f.late_window_s {
-            cfg.engine.fusion.late_window_s = positive("fusion.late_window_s", v)?;
+        self.fusion.apply(&mut cfg.engine.fusion)
+    }
+}
+
+/// `Ok(v)` when `v` is finite and positive.
+fn positive(name: &str, v: f64) -> Result<f64, ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(ConfigError::Invalid(format!(
+            "{name} must be positive, got {v}"
+        )))
+    }
+}
+
+impl FusionFile {
+    /// Applies the `[fusion]` table over `fusion`.
+    pub fn apply(&self, fusion: &mut FusionConfig) -> Result<(), ConfigError> {
+        if let Some(v) = self.late_window_s {
+            fusion.late_window_s = positive("fusion.late_window_s", v)?;
         }
-        if let Some(v) = f.horizon_s {
-            cfg.engine.fusion.horizon_s = positive("fusion.horizon_s", v)?;
+        if let Some(v) = self.horizon_s {
+            fusion.horizon_s = positive("fusion.horizon_s", v)?;
         }
-        if let Some(v) = f.lost_after_s {
-            cfg.engine.fusion.lost_after_s = positive("fusion.lost_after_s", v)?;
+        if let Some(v) = self.lost_after_s {
+            fusion.lost_after_s = positive("fusion.lost_after_s", v)?;
+        }
+        let tracker = &mut fusion.tracker;
+        if let Some(v) = self.decel_mps2 {
+            tracker.motion.decel_mps2 = positive("fusion.decel_mps2", v)?;
+        }
+        if let Some(v) = self.decel_sigma_mps2 {
+            tracker.decel_sigma_mps2 = positive("fusion.decel_sigma_mps2", v)?;
+        }
+        if let Some(v) = self.restitution_sigma {
+            tracker.restitution_sigma = positive("fusion.restitution_sigma", v)?;
+        }
+        if let Some(b) = self.learn_decel {
+            tracker.learn_decel = b;
+        }
+        if let Some(b) = self.learn_restitution {
+            tracker.learn_restitution = b;
         }
         Ok(())
     }
@@ -172,6 +208,11 @@ connect = ["tcp/127.0.0.1:7447"]
 
 [fusion]
 late_window_s = 0.3
+decel_mps2 = 0.45
+decel_sigma_mps2 = 0.05
+restitution_sigma = 0.1
+learn_decel = false
+learn_restitution = true
 
 [record]
 dir = "logs"
@@ -190,6 +231,12 @@ max_mb = 200
         assert_eq!(cfg.net.connect, vec!["tcp/127.0.0.1:7447"]);
         assert!(!cfg.net.multicast_scouting);
         assert_eq!(cfg.engine.fusion.late_window_s, 0.3);
+        let tracker = &cfg.engine.fusion.tracker;
+        assert_eq!(tracker.motion.decel_mps2, 0.45);
+        assert_eq!(tracker.decel_sigma_mps2, 0.05);
+        assert_eq!(tracker.restitution_sigma, 0.1);
+        assert!(!tracker.learn_decel);
+        assert!(tracker.learn_restitution);
         assert_eq!(cfg.engine.roster.as_ref().map(|r| r.len()), Some(2));
         assert_eq!(f.record.max_mb, Some(200.0));
         Ok(())
@@ -263,6 +310,10 @@ max_mb = 200
             "roster = [\"a b\"]",
             "prefix = \"/x\"",
             "[zenoh]\nlisten = [\"127.0.0.1\"]",
+            "[fusion]\ndecel_mps2 = 0",
+            "[fusion]\ndecel_sigma_mps2 = -0.1",
+            "[fusion]\nrestitution_sigma = nan",
+            "[fusion]\nlate_window_s = inf",
         ] {
             let f = FileConfig::parse(bad, p).expect(bad);
             assert!(
