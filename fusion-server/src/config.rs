@@ -298,6 +298,20 @@ max_mb = 200
     }
 
     #[test]
+    fn a_partial_pitch_table_keeps_the_other_defaults() -> Result<(), ConfigError> {
+        let text = "[pitch]\nlength_m = 5.0\nwalls = [\"y_max\", \"y_min\"]\n";
+        let mut cfg = ServeConfig::default();
+        FileConfig::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
+        let want = Pitch {
+            length_m: 5.0,
+            walls: vec![proto::WallSide::YMax, proto::WallSide::YMin],
+            ..Pitch::default()
+        };
+        assert_eq!(cfg.engine.fusion.pitch, want);
+        Ok(())
+    }
+
+    #[test]
     fn mistakes_are_reported() {
         let p = Path::new("x.toml");
         assert!(matches!(
