@@ -2,7 +2,7 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
-use fusion_server::config::FileConfig;
+use fusion_server::config::{FileConfig, PitchFlags};
 use fusion_server::live::{Clock, MatchLog, SystemClock};
 use fusion_server::matchlog::McapLog;
 use fusion_server::net::NetConfig;
@@ -53,6 +53,9 @@ pub struct SimulateArgs {
     /// Directory for the log file.
     #[arg(long, default_value = "out/logs")]
     pub out: PathBuf,
+    /// The simulated pitch.
+    #[command(flatten)]
+    pub pitch: PitchFlags,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -126,6 +129,8 @@ pub struct ServeArgs {
     /// Start a new log file after this many minutes.
     #[arg(long)]
     pub record_max_min: Option<f64>,
+    #[command(flatten)]
+    pub pitch: PitchFlags,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -155,6 +160,9 @@ pub struct SimRobotsArgs {
     pub repeat: bool,
     #[arg(long, default_value = proto::DEFAULT_PREFIX)]
     pub prefix: String,
+    /// The simulated pitch (give the server the same).
+    #[command(flatten)]
+    pub pitch: PitchFlags,
 }
 
 /// Resolves the serving flags over the configuration file: the server's settings and,
@@ -208,6 +216,8 @@ pub fn serve_config(a: &ServeArgs) -> Result<(ServeConfig, Option<RecorderConfig
     if !a.roster.is_empty() {
         cfg.engine.roster = Some(a.roster.iter().cloned().collect());
     }
+    let pitch = a.pitch.over(&cfg.engine.fusion.pitch)?;
+    cfg.engine.fusion.set_pitch(pitch);
     cfg.net.check()?;
     let record = rec.dir.as_ref().map(|dir| {
         let mut r = RecorderConfig::new(dir);
@@ -293,6 +303,7 @@ async fn serve_cmd(a: ServeArgs) -> Result<()> {
 }
 
 async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
+    let pitch = a.pitch.over(&proto::Pitch::default())?;
     let cfg = SimRobotsConfig {
         scenario: a.scenario,
         seed: a.seed,
@@ -316,7 +327,7 @@ async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
         shutdown_signal().await;
         let _ = stop_tx.send(true);
     });
-    let n = simrobots::run(cfg, stop_rx).await?;
+    let n = simrobots::run_on(cfg, pitch, stop_rx).await?;
     println!("published {n} observations");
     Ok(())
 }
@@ -331,3 +342,6 @@ pub async fn run(cli: Cli) -> Result<()> {
         Command::Replay(a) => crate::replay_cmd::offline(a),
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -9,6 +9,9 @@ use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
+mod pitch;
+pub use pitch::{PitchFlags, WallSides, check_pitch};
+
 #[derive(Debug, Error)]
 pub enum ConfigError {
     #[error("reading {path}: {source}")]
@@ -138,9 +141,7 @@ impl FileConfig {
             cfg.net = z.clone();
         }
         if let Some(p) = &self.pitch {
-            if !(p.length_m > 0.0 && p.width_m > 0.0 && p.ball_radius_m > 0.0) {
-                return Err(ConfigError::Invalid("pitch sizes must be positive".into()));
-            }
+            check_pitch(p)?;
             cfg.engine.fusion.set_pitch(p.clone());
         }
         self.fusion.apply(&mut cfg.engine.fusion)
@@ -324,6 +325,9 @@ max_mb = 200
             "roster = [\"a b\"]",
             "prefix = \"/x\"",
             "[zenoh]\nlisten = [\"127.0.0.1\"]",
+            "[pitch]\nwidth_m = 0",
+            "[pitch]\nwall_restitution = 1.0",
+            "[pitch]\nball_radius_m = 2.0",
             "[fusion]\ndecel_mps2 = 0",
             "[fusion]\ndecel_sigma_mps2 = -0.1",
             "[fusion]\nrestitution_sigma = nan",

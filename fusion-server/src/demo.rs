@@ -10,6 +10,7 @@ use fusion_server::live::{Clock, SystemClock};
 use fusion_server::net::NetConfig;
 use fusion_server::serve;
 use fusion_server::simrobots::{self, SimRobotsConfig};
+use proto::Pitch;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -71,12 +72,33 @@ async fn report_progress(live: serve::Shared, mut stop: tokio::sync::watch::Rece
     }
 }
 
+/// The MiRo pitch's ground, whatever the wall restitution (a nominal value: the simulated
+/// walls bounce with their own).
+fn on_miro_ground(pitch: &Pitch) -> bool {
+    let miro = Pitch::default();
+    Pitch {
+        wall_restitution: miro.wall_restitution,
+        ..pitch.clone()
+    } == miro
+}
+
 pub async fn run(a: DemoArgs) -> Result<()> {
     let (mut cfg, rec) = serve_config(&a.serve)?;
     if cfg.net.listen.is_empty() {
         cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
     }
     let endpoint = cfg.net.listen[0].clone();
+    let pitch = cfg.engine.fusion.pitch.clone();
+    let agent_bin = if a.light {
+        None
+    } else {
+        crate::demo_agents::agent_binary()
+    };
+    anyhow::ensure!(
+        agent_bin.is_none() || on_miro_ground(&pitch),
+        "the robot agents render the MiRo pitch: a pitch of another size, other walls or \
+         another ball needs --light"
+    );
     let http = bind_http(&cfg.http).await?;
     let url = format!("http://{}/", http.local_addr()?);
     let log = start_log(rec)?;
@@ -87,11 +109,6 @@ pub async fn run(a: DemoArgs) -> Result<()> {
         let _ = server_stop.wait_for(|s| *s).await;
     }));
     let start = SystemClock.now().offset_secs(1.0);
-    let agent_bin = if a.light {
-        None
-    } else {
-        crate::demo_agents::agent_binary()
-    };
     if !a.light && agent_bin.is_none() {
         println!(
             "No robot-agent binary next to this one: the robots report modelled observations \
@@ -141,7 +158,11 @@ pub async fn run(a: DemoArgs) -> Result<()> {
                 a.scenario
             );
             (
-                Some(tokio::spawn(simrobots::run(robots, stop_rx.clone()))),
+                Some(tokio::spawn(simrobots::run_on(
+                    robots,
+                    pitch,
+                    stop_rx.clone(),
+                ))),
                 None,
             )
         }

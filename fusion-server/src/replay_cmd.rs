@@ -57,7 +57,9 @@ fn remove_earlier(dir: &std::path::Path, prefix: &str) -> Result<()> {
 }
 
 pub fn simulate(a: SimulateArgs) -> Result<()> {
-    let run = fusion_server::simrobots::simulate(
+    let pitch = a.pitch.over(&proto::Pitch::default())?;
+    let run = fusion_server::simrobots::simulate_on(
+        &pitch,
         &a.scenario,
         a.seed,
         sim::SimConfig::default().start,
