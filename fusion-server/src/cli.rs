@@ -7,6 +7,7 @@ use fusion_server::live::{Clock, MatchLog, SystemClock};
 use fusion_server::matchlog::McapLog;
 use fusion_server::net::NetConfig;
 use fusion_server::record::RecorderConfig;
+use fusion_server::replay::TimeArg;
 use fusion_server::serve::{self, ServeConfig};
 use fusion_server::simrobots::{self, SimRobotsConfig};
 use std::path::PathBuf;
@@ -79,6 +80,22 @@ pub struct ReplayArgs {
     /// Print the replay summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// States at exactly these times instead of the grid, comma-separated: stamps
+    /// (nanoseconds since the UNIX epoch) or +SECONDS after the first message (+1.5,+3)
+    #[arg(long, value_name = "TIMES", value_delimiter = ',', conflicts_with_all = ["align", "until"])]
+    pub at: Vec<TimeArg>,
+    /// The grid of states (at --rate-hz) goes through this time instead of starting at the
+    /// first message: a stamp or +SECONDS
+    #[arg(long, value_name = "TIME")]
+    pub align: Option<TimeArg>,
+    /// The grid of states goes on to this time (inclusive), past the end of the log if need
+    /// be: the ball coasting and stopping. A stamp or +SECONDS after the first message
+    #[arg(long, value_name = "TIME")]
+    pub until: Option<TimeArg>,
+    /// Also write every computed state to FILE as CSV (time, status, position, velocity,
+    /// covariance diagonal, learned model, stop point)
+    #[arg(long, value_name = "FILE")]
+    pub states_csv: Option<PathBuf>,
     #[command(flatten)]
     pub serve: ServeArgs,
 }
