@@ -92,8 +92,9 @@ pub struct ReplayArgs {
     /// be: the ball coasting and stopping. A stamp or +SECONDS after the first message
     #[arg(long, value_name = "TIME")]
     pub until: Option<TimeArg>,
-    /// Also write every computed state to FILE as CSV (time, status, position, velocity,
-    /// covariance diagonal, learned model, stop point)
+    /// Write the asked-for states (--at or the grid; with neither, on a log with states,
+    /// the recomputed ones) to FILE as CSV: time, status, position, velocity, covariance,
+    /// learned model, stop point
     #[arg(long, value_name = "FILE")]
     pub states_csv: Option<PathBuf>,
     #[command(flatten)]

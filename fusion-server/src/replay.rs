@@ -31,7 +31,8 @@ pub use times::TimeArg;
 pub trait ReplaySink {
     fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]);
 
-    /// A state computed at `at` (`None`: no estimate yet), before it is written.
+    /// A state asked for at `at` (`None`: no estimate yet), before it is written: at the
+    /// asked times or on the grid, or, when nothing else is asked, at the recorded states.
     fn state(&mut self, _at: Stamp, _state: Option<&BallState>) {}
 }
 
@@ -111,7 +112,8 @@ pub struct ReplayOptions {
     /// The grid goes through this time (default: the first message); it starts at the
     /// first message.
     pub align: Option<TimeArg>,
-    /// The grid ends here, past the last message if need be (default: the last message).
+    /// The grid ends here (included), past the last message if need be (default: at the
+    /// last message).
     pub until: Option<TimeArg>,
 }
 
@@ -136,16 +138,19 @@ pub enum ReplayError {
     Truth(#[from] TruthLogError),
 }
 
-/// The state at `at`, handed to the sink, written and counted; its payload.
+/// The state at `at`, handed to the sink when `asked`, written and counted; its payload.
 fn emit_state(
     engine: &Engine,
     keys: &KeySpace,
     at: Stamp,
+    asked: bool,
     sink: &mut dyn ReplaySink,
     report: &mut ReplayReport,
 ) -> Option<Vec<u8>> {
     let state = engine.ball_state(at);
-    sink.state(at, state.as_ref());
+    if asked {
+        sink.state(at, state.as_ref());
+    }
     let Some(state) = state else {
         report.states_without_estimate += 1;
         return None;
@@ -158,13 +163,14 @@ fn emit_state(
 
 /// The times asked for beyond the recorded states.
 fn schedule(opts: &ReplayOptions, messages: &[LogMessage], has_states: bool) -> Schedule {
-    let Some(first) = messages.first().map(|m| m.log_time) else {
+    let (Some(first), Some(last)) = (messages.first(), messages.last()) else {
         return Schedule::None;
     };
+    let (first, last) = (first.log_time, last.log_time);
     if !opts.at.is_empty() {
         Schedule::at(&opts.at, first)
     } else if !has_states || opts.align.is_some() || opts.until.is_some() {
-        Schedule::grid(opts.state_rate_hz, opts.align, opts.until, first)
+        Schedule::grid(opts.state_rate_hz, opts.align, opts.until, first, last)
     } else {
         Schedule::None
     }
@@ -200,7 +206,7 @@ pub fn replay(
         }
         let at = m.log_time;
         while let Some(t) = times.next_before(Some(at)) {
-            emit_state(&engine, &keys, t, sink, &mut report);
+            emit_state(&engine, &keys, t, true, sink, &mut report);
         }
         let robot = keys.robot_id_of(&m.topic);
         match m.schema_name.as_str() {
@@ -228,7 +234,8 @@ pub fn replay(
             }
             "BallState" => {
                 report.states_recorded += 1;
-                let now = emit_state(&engine, &keys, at, sink, &mut report);
+                let asked = times.asks_nothing();
+                let now = emit_state(&engine, &keys, at, asked, sink, &mut report);
                 if now.as_deref() == Some(m.data.as_slice()) {
                     report.states_identical += 1;
                 } else if report.first_difference.is_none() {
@@ -252,9 +259,9 @@ pub fn replay(
             }
         }
     }
-    // Asked for after the last message: the ball coasting on, stopping, lost.
+    // Due at or after the last message: the ball coasting on, stopping, lost.
     while let Some(t) = times.next_before(None) {
-        emit_state(&engine, &keys, t, sink, &mut report);
+        emit_state(&engine, &keys, t, true, sink, &mut report);
     }
     progress(messages.len(), messages.len());
     report.rejected = engine.counters().rejected.clone();

@@ -1,5 +1,6 @@
-//! The replayed states as CSV, one row per time a state was computed, for analysts
-//! (spreadsheets, pandas): the estimate, its uncertainty and what the filter learned.
+//! The replayed states as CSV, one row per state asked for (see [`ReplaySink::state`]),
+//! for analysts (spreadsheets, pandas): the estimate, its uncertainty, what the filter
+//! learned and where it expects the ball to stop.
 
 use super::ReplaySink;
 use proto::{BallState, BallStatus, Stamp};

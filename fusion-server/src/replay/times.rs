@@ -52,12 +52,12 @@ pub(super) struct Grid {
     origin: Stamp,
     step_s: f64,
     k: i64,
-    /// Last time of the grid (inclusive); `None`: up to the last message.
-    until: Option<Stamp>,
+    /// Last time of the grid (inclusive).
+    until: Stamp,
 }
 
 impl Grid {
-    fn new(origin: Stamp, rate_hz: f64, from: Stamp, until: Option<Stamp>) -> Self {
+    fn new(origin: Stamp, rate_hz: f64, from: Stamp, until: Stamp) -> Self {
         let step_s = 1.0 / rate_hz.max(1e-3);
         let mut k = (from.secs_since(origin) / step_s).ceil() as i64;
         let at = |k: i64| origin.offset_secs(k as f64 * step_s);
@@ -79,10 +79,7 @@ impl Grid {
 
     fn peek(&self) -> Option<Stamp> {
         let t = self.origin.offset_secs(self.k as f64 * self.step_s);
-        match self.until {
-            Some(u) if t > u => None,
-            _ => Some(t),
-        }
+        (t <= self.until).then_some(t)
     }
 }
 
@@ -99,8 +96,7 @@ pub(super) enum Schedule {
 }
 
 impl Schedule {
-    /// Listed times, or a grid at `rate_hz` through `align` (default `first`) starting at
-    /// the first message and ending at `until` (default: the last message).
+    /// Exactly the listed times.
     pub(super) fn at(times: &[TimeArg], first: Stamp) -> Self {
         let mut times: Vec<Stamp> = times.iter().map(|t| t.resolve(first)).collect();
         times.sort();
@@ -108,24 +104,30 @@ impl Schedule {
         Schedule::At { times, next: 0 }
     }
 
+    /// A grid at `rate_hz` through `align` (default: the first message), from the first
+    /// message `first` to `until` (default: the last message, `last`), both included.
     pub(super) fn grid(
         rate_hz: f64,
         align: Option<TimeArg>,
         until: Option<TimeArg>,
         first: Stamp,
+        last: Stamp,
     ) -> Self {
         let origin = align.map_or(first, |a| a.resolve(first));
-        let until = until.map(|u| u.resolve(first));
+        let until = until.map_or(last, |u| u.resolve(first));
         Schedule::Grid(Grid::new(origin, rate_hz, first, until))
     }
 
-    /// The next time still due, if it is before `before` (`None`: any time, once the log
-    /// has ended — then a grid without an end stops).
+    /// No time is asked for: the recorded states are the replay's.
+    pub(super) fn asks_nothing(&self) -> bool {
+        matches!(self, Schedule::None)
+    }
+
+    /// The next time still due, if it is before `before` (`None`: any, the log has ended).
     pub(super) fn next_before(&mut self, before: Option<Stamp>) -> Option<Stamp> {
         let t = match self {
             Schedule::None => None,
             Schedule::At { times, next } => times.get(*next).copied(),
-            Schedule::Grid(g) if before.is_none() && g.until.is_none() => None,
             Schedule::Grid(g) => g.peek(),
         }?;
         if before.is_some_and(|b| t >= b) {
@@ -184,26 +186,23 @@ mod tests {
     #[test]
     fn a_grid_runs_through_its_alignment_from_the_first_message() {
         let first = T0.offset_secs(0.03);
+        let last = T0.offset_secs(0.4);
         let align = TimeArg::Stamp(T0);
-        let mut s = Schedule::grid(10.0, Some(align), None, first);
+        let mut s = Schedule::grid(10.0, Some(align), None, first, last);
         let got = drain(&mut s, Some(T0.offset_secs(0.35)));
         let want: Vec<Stamp> = [0.1, 0.2, 0.3].iter().map(|t| T0.offset_secs(*t)).collect();
         assert_eq!(got, want);
-        assert_eq!(
-            drain(&mut s, None),
-            vec![],
-            "no end: no times after the log"
-        );
+        assert_eq!(drain(&mut s, None), vec![last], "to the last message");
 
         let until = TimeArg::AfterFirst { secs: 0.27 };
-        let mut s = Schedule::grid(10.0, Some(align), Some(until), first);
+        let mut s = Schedule::grid(10.0, Some(align), Some(until), first, last);
         assert_eq!(drain(&mut s, Some(T0.offset_secs(0.15))).len(), 1);
         assert_eq!(
             drain(&mut s, None),
             vec![T0.offset_secs(0.2), T0.offset_secs(0.3)]
         );
         // Without an alignment the grid starts at the first message, which is on it.
-        let mut s = Schedule::grid(30.0, None, None, first);
+        let mut s = Schedule::grid(30.0, None, None, first, last);
         assert_eq!(s.next_before(Some(first.offset_secs(0.01))), Some(first));
     }
 }
