@@ -2,16 +2,16 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
-use fusion_server::config::FileConfig;
+use fusion_server::config::{FileConfig, PitchFlags};
 use fusion_server::live::{Clock, MatchLog, SystemClock};
 use fusion_server::matchlog::McapLog;
 use fusion_server::net::NetConfig;
 use fusion_server::record::RecorderConfig;
+use fusion_server::replay::TimeArg;
 use fusion_server::serve::{self, ServeConfig};
 use fusion_server::simrobots::{self, SimRobotsConfig};
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -30,7 +30,7 @@ pub enum Command {
     Serve(ServeArgs),
     /// The whole system on this machine: the server, simulated MiRos publishing over
     /// loopback Zenoh, and the coach's page.
-    Demo(DemoArgs),
+    Demo(crate::demo::DemoArgs),
     /// Simulated MiRos only: publish a simulated match's observations in real time.
     SimRobots(SimRobotsArgs),
     /// Simulate a match and write it as a match log (observations and ground truth).
@@ -54,6 +54,9 @@ pub struct SimulateArgs {
     /// Directory for the log file.
     #[arg(long, default_value = "out/logs")]
     pub out: PathBuf,
+    /// The simulated pitch.
+    #[command(flatten)]
+    pub pitch: PitchFlags,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -77,6 +80,23 @@ pub struct ReplayArgs {
     /// Print the replay summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// States at exactly these times instead of the grid, comma-separated: stamps
+    /// (nanoseconds since the UNIX epoch) or +SECONDS after the first message (+1.5,+3)
+    #[arg(long, value_name = "TIMES", value_delimiter = ',', conflicts_with_all = ["align", "until"])]
+    pub at: Vec<TimeArg>,
+    /// The grid of states (at --rate-hz) goes through this time instead of starting at the
+    /// first message: a stamp or +SECONDS
+    #[arg(long, value_name = "TIME")]
+    pub align: Option<TimeArg>,
+    /// The grid of states goes on to this time (inclusive), past the end of the log if need
+    /// be: the ball coasting and stopping. A stamp or +SECONDS after the first message
+    #[arg(long, value_name = "TIME")]
+    pub until: Option<TimeArg>,
+    /// Write the asked-for states (--at or the grid; with neither, on a log with states,
+    /// the recomputed ones) to FILE as CSV: time, status, position, velocity, covariance,
+    /// learned model, stop point
+    #[arg(long, value_name = "FILE")]
+    pub states_csv: Option<PathBuf>,
     #[command(flatten)]
     pub serve: ServeArgs,
 }
@@ -127,33 +147,8 @@ pub struct ServeArgs {
     /// Start a new log file after this many minutes.
     #[arg(long)]
     pub record_max_min: Option<f64>,
-}
-
-#[derive(Debug, Clone, Args)]
-pub struct DemoArgs {
     #[command(flatten)]
-    pub serve: ServeArgs,
-    /// Scenario the simulated robots play (a new seed after each match).
-    #[arg(long, default_value = "match")]
-    pub scenario: String,
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Simulated MiRos on the pitch (in the `match` scenario).
-    #[arg(long, default_value_t = 4)]
-    pub robots: usize,
-    /// Length of each simulated match, seconds.
-    #[arg(long, default_value_t = 120.0)]
-    pub match_s: f64,
-    /// Stop after this many seconds (default: run until Ctrl-C).
-    #[arg(long)]
-    pub for_s: Option<f64>,
-    /// Robots report modelled observations instead of running the real perception on
-    /// rendered camera frames (much lighter: no rendering, no image processing).
-    #[arg(long)]
-    pub light: bool,
-    /// Camera frames per second of each agent (both cameras).
-    #[arg(long, default_value_t = 10.0)]
-    pub camera_hz: f64,
+    pub pitch: PitchFlags,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -183,6 +178,9 @@ pub struct SimRobotsArgs {
     pub repeat: bool,
     #[arg(long, default_value = proto::DEFAULT_PREFIX)]
     pub prefix: String,
+    /// The simulated pitch (give the server the same).
+    #[command(flatten)]
+    pub pitch: PitchFlags,
 }
 
 /// Resolves the serving flags over the configuration file: the server's settings and,
@@ -236,6 +234,8 @@ pub fn serve_config(a: &ServeArgs) -> Result<(ServeConfig, Option<RecorderConfig
     if !a.roster.is_empty() {
         cfg.engine.roster = Some(a.roster.iter().cloned().collect());
     }
+    let pitch = a.pitch.over(&cfg.engine.fusion.pitch)?;
+    cfg.engine.fusion.set_pitch(pitch);
     cfg.net.check()?;
     let record = rec.dir.as_ref().map(|dir| {
         let mut r = RecorderConfig::new(dir);
@@ -276,7 +276,7 @@ pub fn finish_log(log: Option<Arc<McapLog>>) -> Result<()> {
     Ok(())
 }
 
-fn as_match_log(log: &Option<Arc<McapLog>>) -> Option<Arc<dyn MatchLog>> {
+pub fn as_match_log(log: &Option<Arc<McapLog>>) -> Option<Arc<dyn MatchLog>> {
     log.clone().map(|l| l as Arc<dyn MatchLog>)
 }
 
@@ -302,7 +302,7 @@ pub async fn shutdown_signal() {
     }
 }
 
-async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {
+pub async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {
     tokio::net::TcpListener::bind(addr)
         .await
         .with_context(|| format!("cannot listen for HTTP on {addr} (choose another with --http)"))
@@ -320,155 +320,8 @@ async fn serve_cmd(a: ServeArgs) -> Result<()> {
     served
 }
 
-/// Prints a one-line summary every few seconds until `stop`.
-async fn report_progress(live: serve::Shared, mut stop: tokio::sync::watch::Receiver<bool>) {
-    let mut tick = tokio::time::interval(Duration::from_secs(5));
-    tick.tick().await;
-    loop {
-        tokio::select! {
-            _ = tick.tick() => {}
-            _ = stop.wait_for(|s| *s) => return,
-        }
-        let line = live.with_engine(|e| {
-            let now = live.clock.now();
-            let online = e.robots(now).iter().filter(|r| r.online).count();
-            let ball = e.ball_state(now).map(|b| {
-                format!(
-                    "{:?} at ({:+.2}, {:+.2}) m, {:.2} m/s",
-                    b.status,
-                    b.position_m[0],
-                    b.position_m[1],
-                    b.velocity_mps[0].hypot(b.velocity_mps[1])
-                )
-            });
-            format!(
-                "{online} robots online, {} observations fused, ball {}",
-                e.counters().observations_accepted,
-                ball.unwrap_or_else(|| "not seen yet".into())
-            )
-        });
-        tracing::info!("{line}");
-    }
-}
-
-async fn demo_cmd(a: DemoArgs) -> Result<()> {
-    let (mut cfg, rec) = serve_config(&a.serve)?;
-    if cfg.net.listen.is_empty() {
-        cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
-    }
-    let endpoint = cfg.net.listen[0].clone();
-    let http = bind_http(&cfg.http).await?;
-    let url = format!("http://{}/", http.local_addr()?);
-    let log = start_log(rec)?;
-    let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
-    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
-    let (server_stop_tx, mut server_stop) = tokio::sync::watch::channel(false);
-    let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
-        let _ = server_stop.wait_for(|s| *s).await;
-    }));
-    let start = SystemClock.now().offset_secs(1.0);
-    let agent_bin = if a.light {
-        None
-    } else {
-        crate::demo_agents::agent_binary()
-    };
-    if !a.light && agent_bin.is_none() {
-        println!(
-            "No robot-agent binary next to this one: the robots report modelled observations \
-             (build it with `cargo build --release -p robot-agent` to run real perception)."
-        );
-    }
-    let (sims, mut agents) = match agent_bin {
-        Some(binary) => {
-            let run =
-                simrobots::simulate(&a.scenario, a.seed, start, Some(a.match_s), Some(a.robots))?;
-            let ids = simrobots::chosen_robots(&run, &[])?;
-            let agents_cfg = crate::demo_agents::AgentsConfig {
-                binary,
-                scenario: a.scenario.clone(),
-                seed: a.seed,
-                team_size: a.robots,
-                match_s: a.match_s,
-                start,
-                camera_hz: a.camera_hz,
-                endpoint: endpoint.clone(),
-                prefix: cfg.prefix.clone(),
-            };
-            let agents = crate::demo_agents::Agents::spawn(&agents_cfg, &ids)?;
-            println!(
-                "Demo running: {} robot-agent processes render their cameras of `{}` at {} Hz, find the ball and publish over Zenoh at {endpoint}.",
-                ids.len(),
-                a.scenario,
-                a.camera_hz
-            );
-            (None, Some(agents))
-        }
-        None => {
-            let robots = SimRobotsConfig {
-                scenario: a.scenario.clone(),
-                seed: a.seed,
-                robots: Vec::new(),
-                duration_s: Some(a.match_s),
-                team_size: Some(a.robots),
-                start,
-                repeat: true,
-                status_rate_hz: 5.0,
-                prefix: cfg.prefix.clone(),
-                net: NetConfig::connecting(&endpoint),
-            };
-            println!(
-                "Demo running: simulated MiRos playing `{}` publish modelled observations over Zenoh at {endpoint}.",
-                a.scenario
-            );
-            (
-                Some(tokio::spawn(simrobots::run(robots, stop_rx.clone()))),
-                None,
-            )
-        }
-    };
-    tokio::spawn(report_progress(live.clone(), stop_rx.clone()));
-    if let Some(agents) = agents.as_mut() {
-        for (id, status) in agents.exited() {
-            tracing::warn!("robot agent {id} exited: {status}");
-        }
-    }
-    println!(
-        "Open {url} (API: {url}api/state, live stream: {url}api/stream, metrics: {url}metrics). Ctrl-C stops."
-    );
-    match a.for_s {
-        Some(s) => {
-            tokio::select! {
-                _ = tokio::time::sleep(Duration::from_secs_f64(s.max(0.0))) => {}
-                _ = shutdown_signal() => {}
-            }
-        }
-        None => shutdown_signal().await,
-    }
-    // Robots leave first, so the server sees them go.
-    let _ = stop_tx.send(true);
-    if let Some(mut agents) = agents {
-        for (id, status) in agents.exited() {
-            tracing::warn!("robot agent {id} had exited: {status}");
-        }
-        agents.stop();
-    }
-    let published = match sims {
-        Some(s) => s.await.context("simulated robots")??,
-        None => 0,
-    };
-    let _ = server_stop_tx.send(true);
-    server.await.context("server")??;
-    finish_log(log)?;
-    let fused = live.with_engine(|e| e.counters().observations_accepted);
-    if published > 0 {
-        println!("Demo stopped: {published} observations published, {fused} fused.");
-    } else {
-        println!("Demo stopped: {fused} observations fused.");
-    }
-    Ok(())
-}
-
 async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
+    let pitch = a.pitch.over(&proto::Pitch::default())?;
     let cfg = SimRobotsConfig {
         scenario: a.scenario,
         seed: a.seed,
@@ -492,7 +345,7 @@ async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
         shutdown_signal().await;
         let _ = stop_tx.send(true);
     });
-    let n = simrobots::run(cfg, stop_rx).await?;
+    let n = simrobots::run_on(cfg, pitch, stop_rx).await?;
     println!("published {n} observations");
     Ok(())
 }
@@ -500,10 +353,13 @@ async fn sim_robots_cmd(a: SimRobotsArgs) -> Result<()> {
 pub async fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Serve(a) => serve_cmd(a).await,
-        Command::Demo(a) => demo_cmd(a).await,
+        Command::Demo(a) => crate::demo::run(a).await,
         Command::SimRobots(a) => sim_robots_cmd(a).await,
         Command::Simulate(a) => crate::replay_cmd::simulate(a),
         Command::Replay(a) if a.realtime => crate::replay_cmd::realtime(a).await,
         Command::Replay(a) => crate::replay_cmd::offline(a),
     }
 }
+
+#[cfg(test)]
+mod tests;

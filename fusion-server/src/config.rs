@@ -1,12 +1,16 @@
 //! The server's configuration file (TOML). Every field is optional; command-line flags
 //! override the file, and the file overrides the defaults.
 
+use crate::core::FusionConfig;
 use crate::net::NetConfig;
 use crate::serve::ServeConfig;
 use proto::Pitch;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
+
+mod pitch;
+pub use pitch::{PitchFlags, WallSides, check_pitch};
 
 #[derive(Debug, Error)]
 pub enum ConfigError {
@@ -44,6 +48,17 @@ pub struct FusionFile {
     pub late_window_s: Option<f64>,
     pub horizon_s: Option<f64>,
     pub lost_after_s: Option<f64>,
+    /// Starting rolling deceleration of the ball (the restitution starts at the pitch's
+    /// `wall_restitution`).
+    pub decel_mps2: Option<f64>,
+    /// Uncertainty (one standard deviation) of the starting deceleration...
+    pub decel_sigma_mps2: Option<f64>,
+    /// ... and of the starting restitution.
+    pub restitution_sigma: Option<f64>,
+    /// Learn the deceleration from the ball's rolling; off keeps the starting value.
+    pub learn_decel: Option<bool>,
+    /// Learn the restitution from wall bounces; off keeps the starting value.
+    pub learn_restitution: Option<bool>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -84,15 +99,6 @@ impl FileConfig {
 
     /// Applies the file's settings over `cfg`.
     pub fn apply(&self, cfg: &mut ServeConfig) -> Result<(), ConfigError> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(v)
-            } else {
-                Err(ConfigError::Invalid(format!(
-                    "{name} must be positive, got {v}"
-                )))
-            }
-        };
         if let Some(id) = &self.server_id {
             if !proto::is_valid_id(id) {
                 return Err(ConfigError::Invalid(format!(
@@ -135,20 +141,51 @@ impl FileConfig {
             cfg.net = z.clone();
         }
         if let Some(p) = &self.pitch {
-            if !(p.length_m > 0.0 && p.width_m > 0.0 && p.ball_radius_m > 0.0) {
-                return Err(ConfigError::Invalid("pitch sizes must be positive".into()));
-            }
-            cfg.engine.fusion.pitch = p.clone();
+            check_pitch(p)?;
+            cfg.engine.fusion.set_pitch(p.clone());
         }
-        let f = &self.fusion;
-        if let Some(v) = f.late_window_s {
-            cfg.engine.fusion.late_window_s = positive("fusion.late_window_s", v)?;
+        self.fusion.apply(&mut cfg.engine.fusion)
+    }
+}
+
+/// `Ok(v)` when `v` is finite and positive.
+fn positive(name: &str, v: f64) -> Result<f64, ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(ConfigError::Invalid(format!(
+            "{name} must be positive, got {v}"
+        )))
+    }
+}
+
+impl FusionFile {
+    /// Applies the `[fusion]` table over `fusion`.
+    pub fn apply(&self, fusion: &mut FusionConfig) -> Result<(), ConfigError> {
+        if let Some(v) = self.late_window_s {
+            fusion.late_window_s = positive("fusion.late_window_s", v)?;
         }
-        if let Some(v) = f.horizon_s {
-            cfg.engine.fusion.horizon_s = positive("fusion.horizon_s", v)?;
+        if let Some(v) = self.horizon_s {
+            fusion.horizon_s = positive("fusion.horizon_s", v)?;
         }
-        if let Some(v) = f.lost_after_s {
-            cfg.engine.fusion.lost_after_s = positive("fusion.lost_after_s", v)?;
+        if let Some(v) = self.lost_after_s {
+            fusion.lost_after_s = positive("fusion.lost_after_s", v)?;
+        }
+        let tracker = &mut fusion.tracker;
+        if let Some(v) = self.decel_mps2 {
+            tracker.motion.decel_mps2 = positive("fusion.decel_mps2", v)?;
+        }
+        if let Some(v) = self.decel_sigma_mps2 {
+            tracker.decel_sigma_mps2 = positive("fusion.decel_sigma_mps2", v)?;
+        }
+        if let Some(v) = self.restitution_sigma {
+            tracker.restitution_sigma = positive("fusion.restitution_sigma", v)?;
+        }
+        if let Some(b) = self.learn_decel {
+            tracker.learn_decel = b;
+        }
+        if let Some(b) = self.learn_restitution {
+            tracker.learn_restitution = b;
         }
         Ok(())
     }
@@ -172,6 +209,11 @@ connect = ["tcp/127.0.0.1:7447"]
 
 [fusion]
 late_window_s = 0.3
+decel_mps2 = 0.45
+decel_sigma_mps2 = 0.05
+restitution_sigma = 0.1
+learn_decel = false
+learn_restitution = true
 
 [record]
 dir = "logs"
@@ -190,6 +232,12 @@ max_mb = 200
         assert_eq!(cfg.net.connect, vec!["tcp/127.0.0.1:7447"]);
         assert!(!cfg.net.multicast_scouting);
         assert_eq!(cfg.engine.fusion.late_window_s, 0.3);
+        let tracker = &cfg.engine.fusion.tracker;
+        assert_eq!(tracker.motion.decel_mps2, 0.45);
+        assert_eq!(tracker.decel_sigma_mps2, 0.05);
+        assert_eq!(tracker.restitution_sigma, 0.1);
+        assert!(!tracker.learn_decel);
+        assert!(tracker.learn_restitution);
         assert_eq!(cfg.engine.roster.as_ref().map(|r| r.len()), Some(2));
         assert_eq!(f.record.max_mb, Some(200.0));
         Ok(())
@@ -212,6 +260,58 @@ max_mb = 200
         Ok(())
     }
 
+    /// The pitch's wall restitution is where the filter starts; the default pitch's is the
+    /// motion model's default, so nothing changes without a `[pitch]`.
+    #[test]
+    fn the_pitch_restitution_is_the_filters_starting_value() -> Result<(), ConfigError> {
+        use crate::core::{Fusion, FusionConfig};
+        use proto::{Camera, Observation, Pose2, Stamp};
+        assert_eq!(
+            FusionConfig::default(),
+            FusionConfig::for_pitch(Pitch::default())
+        );
+        let text = "[pitch]\nversion = 1\nlength_m = 5.0\nwidth_m = 3.0\n\
+                    walls = [\"x_max\", \"x_min\"]\nwall_restitution = 0.8\nball_radius_m = 0.05\n";
+        let mut cfg = ServeConfig::default();
+        FileConfig::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
+        assert_eq!(cfg.engine.fusion.tracker.motion.restitution, 0.8);
+        let t0 = Stamp(1_800_000_000_000_000_000);
+        let mut fusion = Fusion::new(cfg.engine.fusion.clone());
+        for seq in 0..10 {
+            let stamp = t0.offset_secs(seq as f64 / 15.0);
+            let obs = Observation {
+                version: proto::VERSION,
+                robot_id: "miro1".into(),
+                seq,
+                camera: Camera::Left,
+                stamp,
+                position_m: [0.5, 0.2],
+                covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
+                confidence: 0.9,
+                robot_pose: Pose2::default(),
+                pixel: None,
+            };
+            fusion.ingest(&obs, stamp);
+        }
+        let state = fusion.ball_state(t0.offset_secs(1.0)).expect("a ball");
+        assert_eq!(state.model.wall_restitution, 0.8);
+        Ok(())
+    }
+
+    #[test]
+    fn a_partial_pitch_table_keeps_the_other_defaults() -> Result<(), ConfigError> {
+        let text = "[pitch]\nlength_m = 5.0\nwalls = [\"y_max\", \"y_min\"]\n";
+        let mut cfg = ServeConfig::default();
+        FileConfig::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
+        let want = Pitch {
+            length_m: 5.0,
+            walls: vec![proto::WallSide::YMax, proto::WallSide::YMin],
+            ..Pitch::default()
+        };
+        assert_eq!(cfg.engine.fusion.pitch, want);
+        Ok(())
+    }
+
     #[test]
     fn mistakes_are_reported() {
         let p = Path::new("x.toml");
@@ -225,6 +325,13 @@ max_mb = 200
             "roster = [\"a b\"]",
             "prefix = \"/x\"",
             "[zenoh]\nlisten = [\"127.0.0.1\"]",
+            "[pitch]\nwidth_m = 0",
+            "[pitch]\nwall_restitution = 1.0",
+            "[pitch]\nball_radius_m = 2.0",
+            "[fusion]\ndecel_mps2 = 0",
+            "[fusion]\ndecel_sigma_mps2 = -0.1",
+            "[fusion]\nrestitution_sigma = nan",
+            "[fusion]\nlate_window_s = inf",
         ] {
             let f = FileConfig::parse(bad, p).expect(bad);
             assert!(

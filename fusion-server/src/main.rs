@@ -2,6 +2,7 @@
 //! simulation to a log file, and replay of match logs.
 
 mod cli;
+mod demo;
 mod demo_agents;
 mod replay_cmd;
 

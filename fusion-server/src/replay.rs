@@ -2,24 +2,69 @@
 //! engine at the times they were received, the states are recomputed at the times they were
 //! published (or at a fixed rate when the log has none) and compared with the recorded ones,
 //! and when the log carries the simulator's ground truth the result is scored the way the
-//! evaluation scores it.
+//! evaluation scores it. States may also be asked for at chosen times, or on a grid through
+//! a chosen stamp and on past the end of the log ([`ReplayOptions`]).
+//!
+//! A state at time T is the engine's estimate at T after every message received at or
+//! before T: what the live server would have published at T.
 
+use crate::core::FusionCounters;
 use crate::engine::{Engine, EngineConfig};
 use crate::mcap_read::LogMessage;
 use crate::scoring::run_fusion;
-use proto::{KeySpace, Stamp};
+use proto::{BallState, KeySpace, ModelParams, Stamp};
 use sim::score::{Summary, score, tick_count};
 use sim::truth_log::{TruthLogBuilder, TruthLogError};
 use sim::{Delivery, ObsKind};
 use std::collections::BTreeMap;
 
-/// Where a replay's messages go: a new match log, or nowhere.
+mod states_csv;
+mod summary;
+mod times;
+
+pub use states_csv::StatesCsv;
+pub use summary::{ReplayOutputs, summary_json, summary_text};
+use times::Schedule;
+pub use times::TimeArg;
+
+/// Where a replay's messages go: a new match log, a file of states, or nowhere.
 pub trait ReplaySink {
     fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]);
+
+    /// A state asked for at `at` (`None`: no estimate yet), before it is written: at the
+    /// asked times or on the grid, or, when nothing else is asked, at the recorded states.
+    fn state(&mut self, _at: Stamp, _state: Option<&BallState>) {}
 }
 
 impl ReplaySink for () {
     fn write(&mut self, _: &str, _: &str, _: Stamp, _: &[u8]) {}
+}
+
+impl<S: ReplaySink> ReplaySink for Option<S> {
+    fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) {
+        if let Some(s) = self {
+            s.write(topic, schema, log_time, payload);
+        }
+    }
+
+    fn state(&mut self, at: Stamp, state: Option<&BallState>) {
+        if let Some(s) = self {
+            s.state(at, state);
+        }
+    }
+}
+
+/// Both sinks, the first then the second.
+impl<A: ReplaySink, B: ReplaySink> ReplaySink for (A, B) {
+    fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) {
+        self.0.write(topic, schema, log_time, payload);
+        self.1.write(topic, schema, log_time, payload);
+    }
+
+    fn state(&mut self, at: Stamp, state: Option<&BallState>) {
+        self.0.state(at, state);
+        self.1.state(at, state);
+    }
 }
 
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -38,6 +83,13 @@ pub struct ReplayReport {
     pub first_difference: Option<(Stamp, String, String)>,
     /// States written to the new log.
     pub states_written: u64,
+    /// Times a state was asked for (or recorded) when there was no estimate yet.
+    pub states_without_estimate: u64,
+    /// The fusion core's own counts (reordered and replayed observations, observations
+    /// beyond a wall, ...).
+    pub fusion: FusionCounters,
+    /// What the filter had learned by the last message.
+    pub model: Option<ModelParams>,
     /// Messages with topics or schemas replay does not know (copied through).
     pub other: u64,
     /// Match time covered, from the first to the last message.
@@ -46,13 +98,23 @@ pub struct ReplayReport {
     pub accuracy: Option<Summary>,
 }
 
-/// Replay options.
+/// Replay options. The states are computed at every recorded state (and compared), and:
+/// at the `at` times when there are any; else on the grid when the log holds no states or
+/// when `align` or `until` is given.
 #[derive(Debug, Clone)]
 pub struct ReplayOptions {
     pub engine: EngineConfig,
     pub prefix: String,
-    /// State rate used when the log holds no recorded states.
+    /// Rate of the grid of states.
     pub state_rate_hz: f64,
+    /// States at exactly these times (the grid is then not used).
+    pub at: Vec<TimeArg>,
+    /// The grid goes through this time (default: the first message); it starts at the
+    /// first message.
+    pub align: Option<TimeArg>,
+    /// The grid ends here (included), past the last message if need be (default: at the
+    /// last message).
+    pub until: Option<TimeArg>,
 }
 
 impl Default for ReplayOptions {
@@ -61,6 +123,9 @@ impl Default for ReplayOptions {
             engine: EngineConfig::default(),
             prefix: proto::DEFAULT_PREFIX.into(),
             state_rate_hz: 30.0,
+            at: Vec::new(),
+            align: None,
+            until: None,
         }
     }
 }
@@ -73,16 +138,42 @@ pub enum ReplayError {
     Truth(#[from] TruthLogError),
 }
 
+/// The state at `at`, handed to the sink when `asked`, written and counted; its payload.
 fn emit_state(
     engine: &Engine,
     keys: &KeySpace,
     at: Stamp,
+    asked: bool,
     sink: &mut dyn ReplaySink,
+    report: &mut ReplayReport,
 ) -> Option<Vec<u8>> {
-    let state = engine.ball_state(at)?;
+    let state = engine.ball_state(at);
+    if asked {
+        sink.state(at, state.as_ref());
+    }
+    let Some(state) = state else {
+        report.states_without_estimate += 1;
+        return None;
+    };
     let payload = proto::encode(&state);
     sink.write(&keys.ball_state(), "BallState", at, &payload);
+    report.states_written += 1;
     Some(payload)
+}
+
+/// The times asked for beyond the recorded states.
+fn schedule(opts: &ReplayOptions, messages: &[LogMessage], has_states: bool) -> Schedule {
+    let (Some(first), Some(last)) = (messages.first(), messages.last()) else {
+        return Schedule::None;
+    };
+    let (first, last) = (first.log_time, last.log_time);
+    if !opts.at.is_empty() {
+        Schedule::at(&opts.at, first)
+    } else if !has_states || opts.align.is_some() || opts.until.is_some() {
+        Schedule::grid(opts.state_rate_hz, opts.align, opts.until, first, last)
+    } else {
+        Schedule::None
+    }
 }
 
 /// Replays `messages` (in log order); `progress(done, total)` is called now and then.
@@ -102,8 +193,7 @@ pub fn replay(
     let has_truth = messages
         .iter()
         .any(|m| m.topic == sim::truth_log::RUN_TOPIC);
-    let tick_s = 1.0 / opts.state_rate_hz.max(1e-3);
-    let mut next_tick: Option<Stamp> = None;
+    let mut times = schedule(opts, messages, has_states);
     let mut truth = TruthLogBuilder::new();
     let mut arrivals: Vec<(Stamp, proto::Observation)> = Vec::new();
     let (first, last) = (messages.first(), messages.last());
@@ -115,15 +205,8 @@ pub fn replay(
             progress(i, messages.len());
         }
         let at = m.log_time;
-        if !has_states {
-            let mut t = *next_tick.get_or_insert(at);
-            while t < at {
-                if emit_state(&engine, &keys, t, sink).is_some() {
-                    report.states_written += 1;
-                }
-                t = t.offset_secs(tick_s);
-            }
-            next_tick = Some(t);
+        while let Some(t) = times.next_before(Some(at)) {
+            emit_state(&engine, &keys, t, true, sink, &mut report);
         }
         let robot = keys.robot_id_of(&m.topic);
         match m.schema_name.as_str() {
@@ -151,10 +234,8 @@ pub fn replay(
             }
             "BallState" => {
                 report.states_recorded += 1;
-                let now = emit_state(&engine, &keys, at, sink);
-                if now.is_some() {
-                    report.states_written += 1;
-                }
+                let asked = times.asks_nothing();
+                let now = emit_state(&engine, &keys, at, asked, sink, &mut report);
                 if now.as_deref() == Some(m.data.as_slice()) {
                     report.states_identical += 1;
                 } else if report.first_difference.is_none() {
@@ -178,15 +259,21 @@ pub fn replay(
             }
         }
     }
+    // Due at or after the last message: the ball coasting on, stopping, lost.
+    while let Some(t) = times.next_before(None) {
+        emit_state(&engine, &keys, t, true, sink, &mut report);
+    }
     progress(messages.len(), messages.len());
     report.rejected = engine.counters().rejected.clone();
+    report.fusion = engine.fusion().counters();
+    report.model = last
+        .and_then(|m| engine.ball_state(m.log_time))
+        .map(|s| s.model);
     if truth.has_run() {
         let run = truth.finish(arrivals)?;
         // The configured fusion, on the run's pitch.
-        let cfg = crate::core::FusionConfig {
-            pitch: run.pitch.clone(),
-            ..opts.engine.fusion.clone()
-        };
+        let mut cfg = opts.engine.fusion.clone();
+        cfg.set_pitch(run.pitch.clone());
         let records = run_fusion(&run, cfg.clone(), |_| true);
         let without = run
             .phantom
@@ -202,3 +289,6 @@ pub fn replay(
     }
     Ok(report)
 }
+
+#[cfg(test)]
+mod tests;

@@ -8,11 +8,14 @@ use fusion_server::matchlog::{RecorderSink, write_simulated};
 use fusion_server::mcap_read::{LogMessage, read_logs};
 use fusion_server::net::NetConfig;
 use fusion_server::record::RecorderConfig;
-use fusion_server::replay::{ReplayOptions, ReplayReport, replay};
+use fusion_server::replay::{
+    ReplayOptions, ReplayOutputs, StatesCsv, replay, summary_json, summary_text,
+};
 use fusion_server::serve;
 use proto::{KeySpace, Stamp};
 use std::collections::BTreeSet;
-use std::io::{IsTerminal, Write};
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -57,7 +60,9 @@ fn remove_earlier(dir: &std::path::Path, prefix: &str) -> Result<()> {
 }
 
 pub fn simulate(a: SimulateArgs) -> Result<()> {
-    let run = fusion_server::simrobots::simulate(
+    let pitch = a.pitch.over(&proto::Pitch::default())?;
+    let run = fusion_server::simrobots::simulate_on(
+        &pitch,
         &a.scenario,
         a.seed,
         sim::SimConfig::default().start,
@@ -97,87 +102,16 @@ fn read(files: &[std::path::PathBuf]) -> Result<Vec<LogMessage>> {
     Ok(log.messages)
 }
 
-fn print_report(r: &ReplayReport, wall_s: f64) {
-    println!("messages            {}", r.messages);
-    println!(
-        "observations        {} ({} accepted)",
-        r.observations, r.observations_accepted
-    );
-    for ((kind, reason), n) in &r.rejected {
-        println!("  rejected {kind:<11} {reason:<20} {n}");
-    }
-    println!("statuses            {}", r.statuses);
-    println!("states recorded     {}", r.states_recorded);
-    if r.states_recorded > 0 {
-        println!(
-            "states identical    {} of {}",
-            r.states_identical, r.states_recorded
-        );
-    }
-    if let Some((at, was, now)) = &r.first_difference {
-        println!(
-            "first difference at {}:\n  recorded {was}\n  replayed {now}",
-            at.0
-        );
-    }
-    println!("states written      {}", r.states_written);
-    println!(
-        "match time          {:.1} s, replayed in {wall_s:.2} s ({:.0}x real time)",
-        r.span_s,
-        r.span_s / wall_s.max(1e-9)
-    );
-    if let Some(acc) = &r.accuracy {
-        let f = |v: Option<f64>, scale: f64, unit: &str| {
-            v.map(|x| format!("{:.1} {unit}", x * scale))
-                .unwrap_or_else(|| "-".into())
-        };
-        let spread = |s: &sim::score::Spread, scale: f64, unit: &str| {
-            format!(
-                "median {} / p90 {}",
-                f(s.median, scale, unit),
-                f(s.p90, scale, unit)
-            )
-        };
-        println!("accuracy against the log's ground truth (the evaluation's figures):");
-        println!(
-            "  coverage            {}",
-            f(Some(acc.coverage), 100.0, "%")
-        );
-        println!(
-            "  position score      {}",
-            f(acc.position_score, 100.0, "%")
-        );
-        println!(
-            "  position RMSE       {}",
-            f(acc.position_rmse_m, 100.0, "cm")
-        );
-        println!(
-            "  position median     {}",
-            f(acc.position_median_m, 100.0, "cm")
-        );
-        println!(
-            "  velocity RMSE       {}",
-            f(acc.velocity_rmse_mps, 100.0, "cm/s")
-        );
-        println!(
-            "  direction error     {}",
-            f(acc.direction_error_deg, 1.0, "deg")
-        );
-        for (h, s) in &acc.horizon_error_m {
-            println!("  error at {h:>4} s     {}", spread(s, 100.0, "cm"));
-        }
-        println!(
-            "  stop point error    {}",
-            spread(&acc.stop_error_m, 100.0, "cm")
-        );
-        println!(
-            "  bounce time error   {}",
-            spread(&acc.bounce_time_error_s, 1000.0, "ms")
-        );
-        if let Some(p) = acc.phantom_pull_max_m {
-            println!("  phantom pull max    {:.1} cm", p * 100.0);
-        }
-    }
+/// Where the states go as CSV, when asked.
+fn states_csv(a: &ReplayArgs, start: Stamp) -> Result<Option<StatesCsv<BufWriter<File>>>> {
+    a.states_csv
+        .as_ref()
+        .map(|path| {
+            let file = File::create(path)
+                .with_context(|| format!("creating the states file {}", path.display()))?;
+            Ok(StatesCsv::new(BufWriter::new(file), start))
+        })
+        .transpose()
 }
 
 pub fn offline(a: ReplayArgs) -> Result<()> {
@@ -187,9 +121,12 @@ pub fn offline(a: ReplayArgs) -> Result<()> {
         engine: cfg.engine.clone(),
         prefix: cfg.prefix.clone(),
         state_rate_hz: cfg.state_rate_hz,
+        at: a.at.clone(),
+        align: a.align,
+        until: a.until,
     };
     let start = messages.first().map(|m| m.log_time).unwrap_or(Stamp(0));
-    let mut sink = if a.no_log {
+    let log = if a.no_log {
         None
     } else {
         let stem = a.files[0]
@@ -201,49 +138,30 @@ pub fn offline(a: ReplayArgs) -> Result<()> {
         remove_earlier(&a.out, &r.file_prefix)?;
         Some(RecorderSink::create(r, start)?)
     };
+    let mut sinks = (log, states_csv(&a, start)?);
     let t0 = Instant::now();
-    let mut bar = progress_bar("replay");
-    let report = match sink.as_mut() {
-        Some(s) => replay(&messages, &opts, s, &mut bar)?,
-        None => replay(&messages, &opts, &mut (), &mut bar)?,
-    };
-    let files: Vec<String> = match sink {
-        Some(s) => s
-            .finish()?
-            .files
-            .iter()
-            .map(|f| f.display().to_string())
-            .collect(),
-        None => Vec::new(),
-    };
+    let report = replay(&messages, &opts, &mut sinks, &mut progress_bar("replay"))?;
+    let (log, csv) = sinks;
+    let mut out = ReplayOutputs::default();
+    if let Some(log) = log {
+        let files = log.finish()?.files;
+        out.log_files = files.iter().map(|f| f.display().to_string()).collect();
+    }
+    if let (Some(csv), Some(path)) = (csv, &a.states_csv) {
+        csv.finish()
+            .with_context(|| format!("writing the states file {}", path.display()))?;
+        out.states_csv = Some(path.display().to_string());
+    }
     let wall_s = t0.elapsed().as_secs_f64();
     if a.json {
-        let acc = serde_json::to_value(&report.accuracy)?;
-        println!(
-            "{}",
-            serde_json::json!({
-                "messages": report.messages,
-                "statuses": report.statuses,
-                "rejected": report
-                    .rejected
-                    .iter()
-                    .map(|((kind, reason), n)| (format!("{kind}/{reason}"), *n))
-                    .collect::<std::collections::BTreeMap<_, _>>(),
-                "observations": report.observations,
-                "observations_accepted": report.observations_accepted,
-                "states_recorded": report.states_recorded,
-                "states_identical": report.states_identical,
-                "states_written": report.states_written,
-                "span_s": report.span_s,
-                "wall_s": wall_s,
-                "accuracy": acc,
-                "log_files": files,
-            })
-        );
+        println!("{}", summary_json(&report, wall_s, &out));
     } else {
-        print_report(&report, wall_s);
-        for f in &files {
+        print!("{}", summary_text(&report, wall_s));
+        for f in &out.log_files {
             println!("replayed log: {f}");
+        }
+        if let Some(p) = &out.states_csv {
+            println!("states csv: {p}");
         }
     }
     Ok(())
@@ -255,6 +173,10 @@ pub async fn realtime(a: ReplayArgs) -> Result<()> {
     anyhow::ensure!(
         a.speed.is_finite() && a.speed > 0.0,
         "--speed must be positive"
+    );
+    anyhow::ensure!(
+        a.at.is_empty() && a.align.is_none() && a.until.is_none() && a.states_csv.is_none(),
+        "--at, --align, --until and --states-csv are for offline replay, not --realtime"
     );
     let (mut cfg, _) = serve_config(&a.serve)?;
     if cfg.net.listen.is_empty() {

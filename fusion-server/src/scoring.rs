@@ -11,10 +11,7 @@ use sim::{Delivery, SimRun};
 
 /// The fusion's configuration for a run: defaults on the run's pitch.
 pub fn fusion_config(run: &SimRun) -> FusionConfig {
-    FusionConfig {
-        pitch: run.pitch.clone(),
-        ..FusionConfig::default()
-    }
+    FusionConfig::for_pitch(run.pitch.clone())
 }
 
 /// Runs the fusion core (with `cfg`) over the deliveries that `keep` accepts.

@@ -6,7 +6,7 @@
 use crate::live::{Clock, SystemClock};
 use crate::net::NetConfig;
 use anyhow::{Context, Result};
-use proto::{HeadJoints, KeySpace, Observation, RobotStatus, Stamp};
+use proto::{HeadJoints, KeySpace, Observation, Pitch, RobotStatus, Stamp};
 use sim::{RobotTrack, SimConfig, SimRun};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -31,8 +31,29 @@ pub struct SimRobotsConfig {
     pub net: NetConfig,
 }
 
-/// Runs the match at `start` (deterministic: every process computes the same one).
+/// Runs the match at `start` on the MiRo pitch (deterministic: every process computes the
+/// same one).
 pub fn simulate(
+    scenario: &str,
+    seed: u64,
+    start: Stamp,
+    duration_s: Option<f64>,
+    team_size: Option<usize>,
+) -> Result<SimRun> {
+    simulate_on(
+        &Pitch::default(),
+        scenario,
+        seed,
+        start,
+        duration_s,
+        team_size,
+    )
+}
+
+/// [`simulate`] on `pitch`: its size, walls and ball. (The simulated walls bounce with the
+/// run's own drawn restitution; the pitch's is the nominal value recorded with the run.)
+pub fn simulate_on(
+    pitch: &Pitch,
     scenario: &str,
     seed: u64,
     start: Stamp,
@@ -43,6 +64,7 @@ pub fn simulate(
         start,
         duration_s,
         team_size,
+        pitch: pitch.clone(),
         ..SimConfig::default()
     };
     sim::run_scenario(scenario, seed, &cfg).with_context(|| format!("simulating {scenario}"))
@@ -175,12 +197,28 @@ async fn play_robot(
 /// Runs the simulated robots until the match ends (or every match, with `repeat`, until
 /// `stop`). Returns the observations published.
 pub async fn run(cfg: SimRobotsConfig, stop: watch::Receiver<bool>) -> Result<u64> {
+    run_on(cfg, Pitch::default(), stop).await
+}
+
+/// [`run`] with the matches simulated on `pitch`.
+pub async fn run_on(
+    cfg: SimRobotsConfig,
+    pitch: Pitch,
+    stop: watch::Receiver<bool>,
+) -> Result<u64> {
     let keys = KeySpace::new(&cfg.prefix)?;
     let mut start = cfg.start;
     let mut seed = cfg.seed;
     let mut total = 0;
     // One session and liveliness token per robot, kept across matches.
-    let first = simulate(&cfg.scenario, seed, start, cfg.duration_s, cfg.team_size)?;
+    let first = simulate_on(
+        &pitch,
+        &cfg.scenario,
+        seed,
+        start,
+        cfg.duration_s,
+        cfg.team_size,
+    )?;
     let ids = chosen_robots(&first, &cfg.robots)?;
     let mut sessions = Vec::new();
     for id in &ids {
@@ -210,8 +248,9 @@ pub async fn run(cfg: SimRobotsConfig, stop: watch::Receiver<bool>) -> Result<u6
         let next_start = start.offset_secs(run.duration_s);
         let next = if cfg.repeat {
             let (scenario, d, n) = (cfg.scenario.clone(), cfg.duration_s, cfg.team_size);
+            let pitch = pitch.clone();
             Some(tokio::task::spawn_blocking(move || {
-                simulate(&scenario, seed + 1, next_start, d, n)
+                simulate_on(&pitch, &scenario, seed + 1, next_start, d, n)
             }))
         } else {
             None

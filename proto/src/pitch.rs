@@ -26,9 +26,12 @@ impl WallSide {
     ];
 }
 
-/// Pitch geometry, centred on the origin, x along the long side.
+/// Pitch geometry, centred on the origin, x along the long side. Omitted fields take the
+/// MiRo pitch's values; on the wire the version is still required.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
+// Defaults let a configuration file say only what differs from the MiRo pitch.
+#[serde(default, deny_unknown_fields)]
+#[schemars(transform = version_required)]
 pub struct Pitch {
     pub version: u32,
     /// Inner length between the x walls.
@@ -40,6 +43,11 @@ pub struct Pitch {
     /// Default coefficient of restitution of the walls (normal speed out / in).
     pub wall_restitution: f64,
     pub ball_radius_m: f64,
+}
+
+/// `decode` rejects a message without a version, defaults or not: the schema says so.
+fn version_required(schema: &mut schemars::Schema) {
+    schema.insert("required".into(), serde_json::json!(["version"]));
 }
 
 impl Default for Pitch {
@@ -78,5 +86,30 @@ impl Pitch {
         } else {
             dx.max(0.0).hypot(dy.max(0.0))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{DecodeError, decode};
+
+    #[test]
+    fn omitted_fields_take_the_miro_pitch() {
+        let p: Pitch = decode(br#"{"version": 1, "length_m": 5.0, "walls": []}"#).expect("decodes");
+        assert_eq!(
+            p,
+            Pitch {
+                length_m: 5.0,
+                walls: Vec::new(),
+                ..Pitch::default()
+            }
+        );
+    }
+
+    #[test]
+    fn the_wire_still_needs_the_version() {
+        let r = decode::<Pitch>(br#"{"length_m": 5.0}"#);
+        assert!(matches!(r, Err(DecodeError::MissingVersion)), "{r:?}");
     }
 }

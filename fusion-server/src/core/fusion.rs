@@ -54,6 +54,23 @@ impl Default for FusionConfig {
     }
 }
 
+impl FusionConfig {
+    /// The defaults on `pitch` (see [`FusionConfig::set_pitch`]).
+    pub fn for_pitch(pitch: Pitch) -> Self {
+        let mut cfg = FusionConfig::default();
+        cfg.set_pitch(pitch);
+        cfg
+    }
+
+    /// Puts the fusion on `pitch`. The pitch's wall restitution becomes the filter's
+    /// starting restitution, which the filter then learns from the bounces it sees: the
+    /// one place where a pitch turns into the motion model's starting value.
+    pub fn set_pitch(&mut self, pitch: Pitch) {
+        self.tracker.motion.restitution = pitch.wall_restitution;
+        self.pitch = pitch;
+    }
+}
+
 /// What happened to one ingested observation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Ingest {

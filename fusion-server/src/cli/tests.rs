@@ -1,0 +1,92 @@
+use super::*;
+use proto::{Pitch, WallSide};
+
+fn serve_args(args: &[&str]) -> ServeArgs {
+    let argv = ["fusion-server"].iter().chain(args).copied();
+    match Cli::try_parse_from(argv).map(|c| c.command) {
+        Ok(Command::Serve(a)) | Ok(Command::Demo(crate::demo::DemoArgs { serve: a, .. })) => a,
+        Ok(Command::Replay(r)) => r.serve,
+        other => panic!("{args:?}: {other:?}"),
+    }
+}
+
+fn config_file(dir: &tempfile::TempDir, text: &str) -> String {
+    let path = dir.path().join("fusion-server.toml");
+    std::fs::write(&path, text).expect("config written");
+    path.to_string_lossy().into_owned()
+}
+
+#[test]
+fn pitch_flags_override_the_file_which_overrides_the_defaults() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let file = config_file(&dir, "[pitch]\nlength_m = 5.0\nwall_restitution = 0.7\n");
+    for command in ["serve", "replay", "demo"] {
+        let mut args = vec![command, "--config", &file, "--pitch-width-m", "2.8"];
+        args.extend(["--walls", "x_min,x_max"]);
+        if command == "replay" {
+            args.push("match.mcap");
+        }
+        let (cfg, _) = serve_config(&serve_args(&args))?;
+        let want = Pitch {
+            length_m: 5.0,
+            width_m: 2.8,
+            walls: vec![WallSide::XMin, WallSide::XMax],
+            wall_restitution: 0.7,
+            ..Pitch::default()
+        };
+        assert_eq!(cfg.engine.fusion.pitch, want, "{command}");
+        assert_eq!(cfg.engine.fusion.tracker.motion.restitution, 0.7);
+    }
+    let (cfg, _) = serve_config(&serve_args(&[
+        "serve",
+        "--config",
+        &file,
+        "--wall-restitution",
+        "0.4",
+    ]))?;
+    assert_eq!(cfg.engine.fusion.pitch.wall_restitution, 0.4);
+    assert_eq!(cfg.engine.fusion.tracker.motion.restitution, 0.4);
+    assert_eq!(cfg.engine.fusion.pitch.length_m, 5.0);
+    let (cfg, _) = serve_config(&serve_args(&["serve"]))?;
+    assert_eq!(
+        cfg.engine.fusion,
+        fusion_server::core::FusionConfig::default()
+    );
+    Ok(())
+}
+
+#[test]
+fn a_pitch_that_does_not_work_is_refused_with_its_reason() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let file = config_file(&dir, "[pitch]\nball_radius_m = 0.4\n");
+    let err = serve_config(&serve_args(&[
+        "serve",
+        "--config",
+        &file,
+        "--pitch-width-m",
+        "0.7",
+    ]))
+    .err()
+    .map(|e| format!("{e:#}"));
+    assert!(
+        err.as_deref()
+            .is_some_and(|e| e.contains("does not fit on a 3.9 m × 0.7 m pitch")),
+        "{err:?}"
+    );
+    let bad = config_file(&dir, "[pitch]\nwall_restitution = 1.5\n");
+    let err = serve_config(&serve_args(&["serve", "--config", &bad]))
+        .err()
+        .map(|e| format!("{e:#}"));
+    assert!(
+        err.as_deref()
+            .is_some_and(|e| e.contains("pitch.wall_restitution must be between 0 and 1")),
+        "{err:?}"
+    );
+    let parsed = Cli::try_parse_from(["fusion-server", "serve", "--walls", "north"]);
+    let text = parsed.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        text.contains("invalid value 'north' for '--walls <SIDES>'"),
+        "{text}"
+    );
+    Ok(())
+}

@@ -1,0 +1,210 @@
+//! `demo`: the whole system on this machine, the server with simulated MiRos (real
+//! `robot-agent` processes, or modelled observations with `--light`) and the coach's page.
+
+use crate::cli::{
+    ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
+};
+use anyhow::{Context, Result};
+use clap::Args;
+use fusion_server::live::{Clock, SystemClock};
+use fusion_server::net::NetConfig;
+use fusion_server::serve;
+use fusion_server::simrobots::{self, SimRobotsConfig};
+use proto::Pitch;
+use std::sync::Arc;
+use std::time::Duration;
+
+#[derive(Debug, Clone, Args)]
+pub struct DemoArgs {
+    #[command(flatten)]
+    pub serve: ServeArgs,
+    /// Scenario the simulated robots play (a new seed after each match).
+    #[arg(long, default_value = "match")]
+    pub scenario: String,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Simulated MiRos on the pitch (in the `match` scenario).
+    #[arg(long, default_value_t = 4)]
+    pub robots: usize,
+    /// Length of each simulated match, seconds.
+    #[arg(long, default_value_t = 120.0)]
+    pub match_s: f64,
+    /// Stop after this many seconds (default: run until Ctrl-C).
+    #[arg(long)]
+    pub for_s: Option<f64>,
+    /// Robots report modelled observations instead of running the real perception on
+    /// rendered camera frames (much lighter: no rendering, no image processing).
+    #[arg(long)]
+    pub light: bool,
+    /// Camera frames per second of each agent (both cameras).
+    #[arg(long, default_value_t = 10.0)]
+    pub camera_hz: f64,
+}
+
+/// Prints a one-line summary every few seconds until `stop`.
+async fn report_progress(live: serve::Shared, mut stop: tokio::sync::watch::Receiver<bool>) {
+    let mut tick = tokio::time::interval(Duration::from_secs(5));
+    tick.tick().await;
+    loop {
+        tokio::select! {
+            _ = tick.tick() => {}
+            _ = stop.wait_for(|s| *s) => return,
+        }
+        let line = live.with_engine(|e| {
+            let now = live.clock.now();
+            let online = e.robots(now).iter().filter(|r| r.online).count();
+            let ball = e.ball_state(now).map(|b| {
+                format!(
+                    "{:?} at ({:+.2}, {:+.2}) m, {:.2} m/s",
+                    b.status,
+                    b.position_m[0],
+                    b.position_m[1],
+                    b.velocity_mps[0].hypot(b.velocity_mps[1])
+                )
+            });
+            format!(
+                "{online} robots online, {} observations fused, ball {}",
+                e.counters().observations_accepted,
+                ball.unwrap_or_else(|| "not seen yet".into())
+            )
+        });
+        tracing::info!("{line}");
+    }
+}
+
+/// The MiRo pitch's ground, whatever the wall restitution (a nominal value: the simulated
+/// walls bounce with their own).
+fn on_miro_ground(pitch: &Pitch) -> bool {
+    let miro = Pitch::default();
+    Pitch {
+        wall_restitution: miro.wall_restitution,
+        ..pitch.clone()
+    } == miro
+}
+
+pub async fn run(a: DemoArgs) -> Result<()> {
+    let (mut cfg, rec) = serve_config(&a.serve)?;
+    if cfg.net.listen.is_empty() {
+        cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
+    }
+    let endpoint = cfg.net.listen[0].clone();
+    let pitch = cfg.engine.fusion.pitch.clone();
+    let agent_bin = if a.light {
+        None
+    } else {
+        crate::demo_agents::agent_binary()
+    };
+    anyhow::ensure!(
+        agent_bin.is_none() || on_miro_ground(&pitch),
+        "the robot agents render the MiRo pitch: a pitch of another size, other walls or \
+         another ball needs --light"
+    );
+    let http = bind_http(&cfg.http).await?;
+    let url = format!("http://{}/", http.local_addr()?);
+    let log = start_log(rec)?;
+    let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let (server_stop_tx, mut server_stop) = tokio::sync::watch::channel(false);
+    let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
+        let _ = server_stop.wait_for(|s| *s).await;
+    }));
+    let start = SystemClock.now().offset_secs(1.0);
+    if !a.light && agent_bin.is_none() {
+        println!(
+            "No robot-agent binary next to this one: the robots report modelled observations \
+             (build it with `cargo build --release -p robot-agent` to run real perception)."
+        );
+    }
+    let (sims, mut agents) = match agent_bin {
+        Some(binary) => {
+            let run =
+                simrobots::simulate(&a.scenario, a.seed, start, Some(a.match_s), Some(a.robots))?;
+            let ids = simrobots::chosen_robots(&run, &[])?;
+            let agents_cfg = crate::demo_agents::AgentsConfig {
+                binary,
+                scenario: a.scenario.clone(),
+                seed: a.seed,
+                team_size: a.robots,
+                match_s: a.match_s,
+                start,
+                camera_hz: a.camera_hz,
+                endpoint: endpoint.clone(),
+                prefix: cfg.prefix.clone(),
+            };
+            let agents = crate::demo_agents::Agents::spawn(&agents_cfg, &ids)?;
+            println!(
+                "Demo running: {} robot-agent processes render their cameras of `{}` at {} Hz, find the ball and publish over Zenoh at {endpoint}.",
+                ids.len(),
+                a.scenario,
+                a.camera_hz
+            );
+            (None, Some(agents))
+        }
+        None => {
+            let robots = SimRobotsConfig {
+                scenario: a.scenario.clone(),
+                seed: a.seed,
+                robots: Vec::new(),
+                duration_s: Some(a.match_s),
+                team_size: Some(a.robots),
+                start,
+                repeat: true,
+                status_rate_hz: 5.0,
+                prefix: cfg.prefix.clone(),
+                net: NetConfig::connecting(&endpoint),
+            };
+            println!(
+                "Demo running: simulated MiRos playing `{}` publish modelled observations over Zenoh at {endpoint}.",
+                a.scenario
+            );
+            (
+                Some(tokio::spawn(simrobots::run_on(
+                    robots,
+                    pitch,
+                    stop_rx.clone(),
+                ))),
+                None,
+            )
+        }
+    };
+    tokio::spawn(report_progress(live.clone(), stop_rx.clone()));
+    if let Some(agents) = agents.as_mut() {
+        for (id, status) in agents.exited() {
+            tracing::warn!("robot agent {id} exited: {status}");
+        }
+    }
+    println!(
+        "Open {url} (API: {url}api/state, live stream: {url}api/stream, metrics: {url}metrics). Ctrl-C stops."
+    );
+    match a.for_s {
+        Some(s) => {
+            tokio::select! {
+                _ = tokio::time::sleep(Duration::from_secs_f64(s.max(0.0))) => {}
+                _ = shutdown_signal() => {}
+            }
+        }
+        None => shutdown_signal().await,
+    }
+    // Robots leave first, so the server sees them go.
+    let _ = stop_tx.send(true);
+    if let Some(mut agents) = agents {
+        for (id, status) in agents.exited() {
+            tracing::warn!("robot agent {id} had exited: {status}");
+        }
+        agents.stop();
+    }
+    let published = match sims {
+        Some(s) => s.await.context("simulated robots")??,
+        None => 0,
+    };
+    let _ = server_stop_tx.send(true);
+    server.await.context("server")??;
+    finish_log(log)?;
+    let fused = live.with_engine(|e| e.counters().observations_accepted);
+    if published > 0 {
+        println!("Demo stopped: {published} observations published, {fused} fused.");
+    } else {
+        println!("Demo stopped: {fused} observations fused.");
+    }
+    Ok(())
+}

@@ -1,0 +1,166 @@
+//! What replay prints: the summary as text lines or as one JSON object, with every count
+//! the engine and the fusion core kept.
+
+use super::ReplayReport;
+
+/// Files a replay wrote.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReplayOutputs {
+    /// The re-fused match log's files.
+    pub log_files: Vec<String>,
+    /// The states as CSV.
+    pub states_csv: Option<String>,
+}
+
+/// The summary as JSON (`wall_s`: how long the replay took).
+pub fn summary_json(r: &ReplayReport, wall_s: f64, out: &ReplayOutputs) -> serde_json::Value {
+    let rejected: serde_json::Map<String, serde_json::Value> = r
+        .rejected
+        .iter()
+        .map(|((kind, reason), n)| (format!("{kind}/{reason}"), (*n).into()))
+        .collect();
+    serde_json::json!({
+        "messages": r.messages,
+        "statuses": r.statuses,
+        "rejected": rejected,
+        "observations": r.observations,
+        "observations_accepted": r.observations_accepted,
+        "observations_reordered": r.fusion.reordered,
+        "observations_replayed": r.fusion.replayed,
+        "observations_outside_walls": r.fusion.outside_walls,
+        "states_recorded": r.states_recorded,
+        "states_identical": r.states_identical,
+        "states_written": r.states_written,
+        "states_without_estimate": r.states_without_estimate,
+        "model": r.model.map(|m| serde_json::json!({
+            "rolling_decel_mps2": m.rolling_decel_mps2,
+            "wall_restitution": m.wall_restitution,
+            "decel_samples": m.decel_samples,
+            "restitution_samples": m.restitution_samples,
+        })),
+        "span_s": r.span_s,
+        "wall_s": wall_s,
+        "accuracy": r.accuracy.as_ref().and_then(|a| serde_json::to_value(a).ok()),
+        "log_files": out.log_files,
+        "states_csv": out.states_csv,
+    })
+}
+
+/// The summary as text lines (`wall_s`: how long the replay took).
+pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
+    let mut lines = Vec::new();
+    let mut line = |text: String| lines.push(text);
+    line(format!("messages            {}", r.messages));
+    line(format!(
+        "observations        {} ({} accepted)",
+        r.observations, r.observations_accepted
+    ));
+    for ((kind, reason), n) in &r.rejected {
+        line(format!("  rejected {kind:<11} {reason:<20} {n}"));
+    }
+    if r.fusion.reordered > 0 {
+        line(format!(
+            "  out of order      {} slotted in by capture time, {} later ones re-applied",
+            r.fusion.reordered, r.fusion.replayed
+        ));
+    }
+    if r.fusion.outside_walls > 0 {
+        line(format!(
+            "  beyond a wall     {} accepted, ignored by the tracker",
+            r.fusion.outside_walls
+        ));
+    }
+    line(format!("statuses            {}", r.statuses));
+    line(format!("states recorded     {}", r.states_recorded));
+    if r.states_recorded > 0 {
+        line(format!(
+            "states identical    {} of {}",
+            r.states_identical, r.states_recorded
+        ));
+    }
+    if let Some((at, was, now)) = &r.first_difference {
+        line(format!(
+            "first difference at {}:\n  recorded {was}\n  replayed {now}",
+            at.0
+        ));
+    }
+    line(format!("states written      {}", r.states_written));
+    if r.states_without_estimate > 0 {
+        line(format!(
+            "  without estimate  {} (asked for before the ball was first seen)",
+            r.states_without_estimate
+        ));
+    }
+    if let Some(m) = &r.model {
+        line(format!(
+            "model at the end    deceleration {:.3} m/s² ({} samples), restitution {:.2} ({} bounces)",
+            m.rolling_decel_mps2, m.decel_samples, m.wall_restitution, m.restitution_samples
+        ));
+    }
+    line(format!(
+        "match time          {:.1} s, replayed in {wall_s:.2} s ({:.0}x real time)",
+        r.span_s,
+        r.span_s / wall_s.max(1e-9)
+    ));
+    if let Some(acc) = &r.accuracy {
+        accuracy_lines(&mut line, acc);
+    }
+    lines.push(String::new());
+    lines.join("\n")
+}
+
+fn accuracy_lines(line: &mut impl FnMut(String), acc: &sim::score::Summary) {
+    let f = |v: Option<f64>, scale: f64, unit: &str| {
+        v.map(|x| format!("{:.1} {unit}", x * scale))
+            .unwrap_or_else(|| "-".into())
+    };
+    let spread = |sp: &sim::score::Spread, scale: f64, unit: &str| {
+        format!(
+            "median {} / p90 {}",
+            f(sp.median, scale, unit),
+            f(sp.p90, scale, unit)
+        )
+    };
+    line("accuracy against the log's ground truth (the evaluation's figures):".into());
+    line(format!(
+        "  coverage            {}",
+        f(Some(acc.coverage), 100.0, "%")
+    ));
+    line(format!(
+        "  position score      {}",
+        f(acc.position_score, 100.0, "%")
+    ));
+    line(format!(
+        "  position RMSE       {}",
+        f(acc.position_rmse_m, 100.0, "cm")
+    ));
+    line(format!(
+        "  position median     {}",
+        f(acc.position_median_m, 100.0, "cm")
+    ));
+    line(format!(
+        "  velocity RMSE       {}",
+        f(acc.velocity_rmse_mps, 100.0, "cm/s")
+    ));
+    line(format!(
+        "  direction error     {}",
+        f(acc.direction_error_deg, 1.0, "deg")
+    ));
+    for (h, sp) in &acc.horizon_error_m {
+        line(format!(
+            "  error at {h:>4} s     {}",
+            spread(sp, 100.0, "cm")
+        ));
+    }
+    line(format!(
+        "  stop point error    {}",
+        spread(&acc.stop_error_m, 100.0, "cm")
+    ));
+    line(format!(
+        "  bounce time error   {}",
+        spread(&acc.bounce_time_error_s, 1000.0, "ms")
+    ));
+    if let Some(p) = acc.phantom_pull_max_m {
+        line(format!("  phantom pull max    {:.1} cm", p * 100.0));
+    }
+}
