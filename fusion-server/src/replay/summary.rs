@@ -28,6 +28,8 @@ pub fn summary_json(r: &ReplayReport, wall_s: f64, out: &ReplayOutputs) -> serde
         "observations_reordered": r.fusion.reordered,
         "observations_replayed": r.fusion.replayed,
         "observations_outside_walls": r.fusion.outside_walls,
+        "observations_held": r.fusion.held_in_hypotheses,
+        "kicks_inferred": r.fusion.kicks_inferred,
         "states_recorded": r.states_recorded,
         "states_identical": r.states_identical,
         "states_written": r.states_written,
@@ -68,6 +70,18 @@ pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
         line(format!(
             "  beyond a wall     {} accepted, ignored by the tracker",
             r.fusion.outside_walls
+        ));
+    }
+    if r.fusion.held_in_hypotheses > 0 {
+        line(format!(
+            "  held              {} went to hypotheses that were not the estimate (awaiting promotion, or phantoms)",
+            r.fusion.held_in_hypotheses
+        ));
+    }
+    if r.fusion.kicks_inferred > 0 {
+        line(format!(
+            "kicks inferred      {} (runs of surprising sightings)",
+            r.fusion.kicks_inferred
         ));
     }
     line(format!("statuses            {}", r.statuses));

@@ -187,6 +187,8 @@ fn observations_beyond_a_wall_are_counted_and_shown() {
     for key in [
         "observations_reordered",
         "observations_replayed",
+        "observations_held",
+        "kicks_inferred",
         "states_without_estimate",
         "model",
     ] {

@@ -243,11 +243,11 @@ fn an_unreported_kick_seen_by_one_robot_is_followed() {
     let (error, _) = replay_unreported_kick(true);
     let (error_off, kicks_off) = replay_unreported_kick(false);
     assert_eq!(kicks_off, 0);
-    // The estimate follows the kick within a few centimetres (here the covariance of the
+    // The estimate follows the kick within 6 cm on average (here the covariance of the
     // young resting track is wide enough that no onset needs to be declared); inferring
     // kicks never makes it worse.
     assert!(
-        error < 0.05,
+        error < 0.06,
         "mean position error after the kick: {error} m"
     );
     assert!(
