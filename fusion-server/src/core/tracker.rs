@@ -3,9 +3,10 @@
 //!
 //! Every observation is gated (χ², 2 dof, on S = HPHᵀ + R) against every hypothesis and
 //! updates the closest one that accepts it. Observations no hypothesis accepts start a new
-//! one. A hypothesis replaces the main track when it is supported by more recent
-//! observations from enough distinct robots: that is how a kick or a relocation is followed
-//! within a few frames, and why a phantom seen by one robot does not capture the estimate.
+//! one. A hypothesis replaces the main track when it has clearly more recent support, from
+//! enough distinct robots or steadily from one, counted in expected sightings per camera
+//! stream ([`acquire`]); a kick nobody reports re-initialises the track's velocity from a
+//! change point ([`onset`]). docs/fusion.md states the rules.
 
 use super::filter::{BallFilter, DECEL, Innovation, Learn, ModelPrior, ProcessNoise, RESTITUTION};
 use super::motion::{Bounds, speed};
