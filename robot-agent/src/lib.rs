@@ -48,6 +48,10 @@
 //!   ball per frame.
 //! - [`agent`]: a robot's perception state between frames: observations, status, counters.
 //! - [`builtin`]: the shipped calibration of the simulated camera and the ball classifier.
+//!
+//! Recordings:
+//! - [`ros_msg`]: the ROS messages of a MiRo's recordings (compressed images, joint states,
+//!   poses, odometry) decoded from ROS 1 and ROS 2 (CDR) bytes.
 
 pub mod agent;
 pub mod builtin;
@@ -77,6 +81,9 @@ pub mod pipeline;
 pub mod projection;
 pub mod rectify;
 mod rng;
+pub mod ros_msg;
+#[cfg(test)]
+mod ros_msg_fixtures;
 pub mod svm;
 mod svm_model;
 #[cfg(test)]
