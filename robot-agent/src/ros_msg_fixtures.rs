@@ -22,7 +22,7 @@ impl Enc {
 
     fn align(&mut self, n: usize) {
         if self.cdr {
-            while (self.buf.len() - 4) % n != 0 {
+            while !(self.buf.len() - 4).is_multiple_of(n) {
                 self.buf.push(0);
             }
         }

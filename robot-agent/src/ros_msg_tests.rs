@@ -9,6 +9,9 @@ use crate::ros_msg_fixtures as fx;
 use approx::assert_relative_eq;
 use proptest::prelude::*;
 
+/// A decoder run on bytes, saying whether it decoded them.
+type Decodes = fn(Encoding, &[u8]) -> bool;
+
 const BOTH: [(Encoding, bool); 2] = [(Encoding::Ros1, false), (Encoding::Cdr, true)];
 
 #[test]
@@ -103,14 +106,14 @@ fn big_endian_cdr_is_read() {
 
 #[test]
 fn every_truncation_is_an_error() {
-    let messages: Vec<(Encoding, Vec<u8>, fn(Encoding, &[u8]) -> bool)> = BOTH
+    let messages: Vec<(Encoding, Vec<u8>, Decodes)> = BOTH
         .iter()
         .flat_map(|&(enc, cdr)| {
             [
                 (
                     enc,
                     fx::compressed_image(cdr, (1, 2), "camr", "png", &[1, 2, 3, 4, 5]),
-                    (|e, b: &[u8]| decode_compressed_image(e, b).is_ok()) as fn(_, &[u8]) -> _,
+                    (|e, b: &[u8]| decode_compressed_image(e, b).is_ok()) as Decodes,
                 ),
                 (
                     enc,

@@ -12,12 +12,17 @@
 //! - `/robot/state`: `rf.RobotFrameState`, [`RobotState`]: the pose, its covariance and the
 //!   head joints at a stamp. Each image takes the latest state at or before its capture
 //!   (or the first one).
+//!
+//! A MiRo's ROS recordings (channels with the `ros1` or `cdr` message encoding) are read
+//! too: see [`crate::ros_frames`].
 
+use crate::ros_frames::{RosMessage, RosStates, RosTopics};
 use anyhow::{Context, Result, bail};
 use base64::Engine;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use proto::{Camera, HeadJoints, Pose2, Stamp};
 use robot_agent::image::RgbImage;
+use robot_agent::ros_msg::Encoding;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
@@ -302,6 +307,10 @@ pub struct McapFrames {
     /// (stamp, camera, image bytes decoded lazily).
     pub images: Vec<(Stamp, Camera, McapImage)>,
     pub states: Vec<(Stamp, RobotState)>,
+    /// The joints and poses of ROS channels.
+    pub ros: RosStates,
+    /// Whether the recording has ROS channels.
+    pub has_ros: bool,
     /// Messages skipped, with the reason, for the log.
     pub skipped: BTreeMap<String, u64>,
 }
@@ -377,7 +386,8 @@ fn camera_of(topic: &str, frame_id: &str) -> Option<Camera> {
 }
 
 /// Reads a recording's images and states; messages it cannot use are counted, not fatal.
-pub fn read_mcap(path: &Path) -> Result<McapFrames> {
+/// ROS channels are picked by `topics`.
+pub fn read_mcap(path: &Path, topics: &RosTopics) -> Result<McapFrames> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     let mut out = McapFrames::default();
     let stream = mcap::MessageStream::new(&bytes).context("not an MCAP file")?;
@@ -399,6 +409,22 @@ pub fn read_mcap(path: &Path) -> Result<McapFrames> {
             .as_ref()
             .map(|s| s.name.as_str())
             .unwrap_or("");
+        if let Some(encoding) = Encoding::of_mcap(&message.channel.message_encoding) {
+            out.has_ros = true;
+            let m = RosMessage {
+                encoding,
+                topic,
+                schema_name: schema,
+                log_time: Stamp(message.log_time),
+                data: &message.data,
+            };
+            match crate::ros_frames::take(topics, &mut out.ros, &m) {
+                Ok(Some(image)) => out.images.push(image),
+                Ok(None) => {}
+                Err(e) => *out.skipped.entry(format!("{topic}: {e:#}")).or_default() += 1,
+            }
+            continue;
+        }
         let result: Result<()> = (|| {
             match schema {
                 "foxglove.CompressedImage" => {

@@ -6,6 +6,7 @@ mod bench_cmd;
 mod calibrate_cmd;
 mod defaults;
 mod frames_io;
+mod ros_frames;
 mod run;
 mod sim_patches;
 mod sim_source;

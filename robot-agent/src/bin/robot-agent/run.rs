@@ -25,7 +25,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub robot_id: String,
     /// `sim` (the simulator's rendered cameras), `images:DIR` (a folder with a frames.jsonl
-    /// index) or `mcap:FILE` (a recording of camera images and robot states).
+    /// index) or `mcap:FILE` (a recording of camera images and robot states, or a MiRo's
+    /// ROS 2 bag or converted ROS 1 bag).
     #[arg(long, default_value = "sim")]
     pub source: SourceSpec,
     /// Camera calibration from `robot-agent calibrate`: the left camera's, and the right
@@ -73,6 +74,8 @@ pub struct RunArgs {
     pub parent_pid: Option<u32>,
     #[command(flatten)]
     pub sim: crate::sim_source::SimArgs,
+    #[command(flatten)]
+    pub ros: crate::ros_frames::RosTopics,
 }
 
 /// What the pipeline thread hands to the network side.
@@ -346,7 +349,7 @@ fn open_source(args: &RunArgs) -> Result<Box<dyn FrameSource>> {
             wall_now(),
         )?),
         SourceSpec::Images(dir) => Box::new(ImagesSource::open(dir.clone())?),
-        SourceSpec::Mcap(file) => Box::new(McapSource::open(file.clone())?),
+        SourceSpec::Mcap(file) => Box::new(McapSource::open(file.clone(), &args.ros)?),
     })
 }
 

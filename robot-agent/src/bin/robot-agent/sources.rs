@@ -4,6 +4,7 @@
 use crate::frames_io::{
     FrameRecord, McapFrames, StoredFrame, load_image, read_index, read_mcap, state_at,
 };
+use crate::ros_frames::{RosTopics, RosTrack};
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
 
@@ -84,32 +85,71 @@ impl FrameSource for ImagesSource {
     }
 }
 
-/// An MCAP recording of camera images and robot states.
+/// An MCAP recording of camera images and robot states: the project's JSON layout or a
+/// MiRo's ROS channels.
 #[derive(Debug)]
 pub struct McapSource {
     frames: McapFrames,
+    states: McapStates,
     next: usize,
 }
 
+/// Where a recording's frames take the robot's state from.
+#[derive(Debug)]
+enum McapStates {
+    /// `/robot/state` messages.
+    Json,
+    /// ROS joint and pose messages (or the defaults).
+    Ros(RosTrack),
+}
+
 impl McapSource {
-    pub fn open(path: PathBuf) -> Result<Self> {
-        let frames = read_mcap(&path)?;
+    pub fn open(path: PathBuf, topics: &RosTopics) -> Result<Self> {
+        let mut frames = read_mcap(&path, topics)?;
+        let name = path.display().to_string();
         for (why, n) in &frames.skipped {
-            tracing::warn!("{}: skipped {n} message(s): {why}", path.display());
+            tracing::warn!("{name}: skipped {n} message(s): {why}");
         }
-        if frames.states.is_empty() && !frames.images.is_empty() {
-            bail!(
-                "{} has images but no /robot/state messages: frames cannot be projected without the robot's pose",
-                path.display()
+        if !frames.ros.ignored.is_empty() {
+            let ignored: Vec<String> = frames
+                .ros
+                .ignored
+                .iter()
+                .map(|(t, n)| format!("{t} ({n})"))
+                .collect();
+            tracing::info!("{name}: topics not used: {}", ignored.join(", "));
+        }
+        let states = if !frames.states.is_empty() || !frames.has_ros {
+            if frames.states.is_empty() && !frames.images.is_empty() {
+                bail!(
+                    "{name} has images but no /robot/state messages: frames cannot be projected without the robot's pose"
+                );
+            }
+            McapStates::Json
+        } else {
+            McapStates::Ros(RosTrack::new(
+                std::mem::take(&mut frames.ros),
+                topics,
+                &name,
+            ))
+        };
+        if frames.images.is_empty() {
+            tracing::warn!(
+                "{name}: no usable images (a ROS recording's camera topics are {} and {}: --left-topic, --right-topic)",
+                topics.left_topic,
+                topics.right_topic
             );
         }
         tracing::info!(
-            "{}: {} images, {} states",
-            path.display(),
+            "{name}: {} images, {} states",
             frames.images.len(),
             frames.states.len()
         );
-        Ok(McapSource { frames, next: 0 })
+        Ok(McapSource {
+            frames,
+            states,
+            next: 0,
+        })
     }
 }
 
@@ -124,7 +164,12 @@ impl FrameSource for McapSource {
                     continue;
                 }
             };
-            let state = state_at(&self.frames.states, *stamp).context("no robot state")?;
+            let state = match &self.states {
+                McapStates::Json => {
+                    state_at(&self.frames.states, *stamp).context("no robot state")?
+                }
+                McapStates::Ros(track) => track.state_at(*stamp),
+            };
             return Ok(Some(Captured {
                 frame: StoredFrame {
                     stamp: *stamp,
