@@ -404,3 +404,41 @@ fn the_pipeline_finds_the_ball_in_a_recorded_rendered_frame() {
     );
     assert_eq!(found_at(f), Some(pixel));
 }
+
+/// The project's own JSON layout reads as before, unaffected by the ROS topics.
+#[test]
+fn json_recordings_still_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("json.mcap");
+    let png = disc_png(20);
+    let frame = crate::frames_io::StoredFrame {
+        stamp: Stamp(ns(T0_S, 9)),
+        camera: Camera::Right,
+        image: robot_agent::image_io::decode_rgb(&png).unwrap(),
+        state: crate::frames_io::RobotState {
+            state_stamp: Some(Stamp(ns(T0_S, 9))),
+            pose: Pose2 {
+                x_m: 1.0,
+                y_m: 2.0,
+                theta_rad: 0.5,
+            },
+            pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4],
+            head: fx_head(),
+        },
+    };
+    let mut w = crate::frames_io::McapFrameWriter::create(&path).unwrap();
+    w.write(&frame).unwrap();
+    w.finish().unwrap();
+    let back = all_frames(path, &RosTopics::default());
+    assert_eq!(back.len(), 1);
+    assert_eq!((back[0].stamp, back[0].camera), (frame.stamp, frame.camera));
+    assert_eq!(back[0].state, frame.state);
+}
+
+fn fx_head() -> HeadJoints {
+    HeadJoints {
+        lift_rad: 0.4,
+        yaw_rad: 0.1,
+        pitch_rad: -0.2,
+    }
+}
