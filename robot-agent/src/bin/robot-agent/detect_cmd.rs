@@ -132,7 +132,8 @@ pub fn run(args: DetectArgs) -> Result<()> {
             }
             Err(Failure::Photo(err)) => {
                 failed += 1;
-                eprintln!("{name}: {err:#}");
+                // The error names the photo.
+                eprintln!("{err:#}");
                 let line = FailedLine {
                     file: &name,
                     error: format!("{err:#}"),
@@ -187,7 +188,7 @@ fn detect_one(
         model.as_ref(),
         &mut NoClock,
     )
-    .map_err(|e| Failure::Photo(e.into()))?;
+    .map_err(|e| Failure::Photo(anyhow::Error::from(e).context(format!("detecting in {name}"))))?;
     let time_ms = started.elapsed().as_secs_f64() * 1e3;
     if let Some(dir) = overlays {
         write_overlay(dir, name, &image, &candidates).map_err(Failure::Fatal)?;
