@@ -140,6 +140,51 @@ pub struct CameraModel {
 }
 
 impl CameraModel {
+    /// A plain pinhole camera (no distortion) with the given focal lengths and principal
+    /// point, pixels, for an image of `width_px × height_px`.
+    pub fn pinhole(
+        fx_px: f64,
+        fy_px: f64,
+        cx_px: f64,
+        cy_px: f64,
+        width_px: u32,
+        height_px: u32,
+    ) -> CameraModel {
+        CameraModel {
+            intrinsics: Intrinsics {
+                fx_px,
+                fy_px,
+                cx_px,
+                cy_px,
+                width_px,
+                height_px,
+            },
+            distortion: Distortion::NONE,
+        }
+    }
+
+    /// The same camera with its images resized to `width_px × height_px` (the whole sensor
+    /// scaled, not cropped): the focal lengths and principal point scale with the image,
+    /// the principal point about the top-left corner of the image (pixel centres are at
+    /// integer coordinates, so the image spans −0.5 to width − 0.5). The distortion acts
+    /// on normalised coordinates and stays as it is.
+    pub fn scaled_to(&self, width_px: u32, height_px: u32) -> CameraModel {
+        let i = &self.intrinsics;
+        let sx = f64::from(width_px) / f64::from(i.width_px);
+        let sy = f64::from(height_px) / f64::from(i.height_px);
+        CameraModel {
+            intrinsics: Intrinsics {
+                fx_px: i.fx_px * sx,
+                fy_px: i.fy_px * sy,
+                cx_px: (i.cx_px + 0.5) * sx - 0.5,
+                cy_px: (i.cy_px + 0.5) * sy - 0.5,
+                width_px,
+                height_px,
+            },
+            distortion: self.distortion,
+        }
+    }
+
     /// Checks that the model is usable: finite parameters, positive focal lengths and a
     /// non-empty image.
     pub fn check(&self) -> Result<(), CameraModelError> {

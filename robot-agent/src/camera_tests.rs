@@ -436,3 +436,26 @@ proptest! {
         }
     }
 }
+
+/// A camera whose images are scaled sees every ray at the scaled pixel, the image's
+/// corners staying at the corners.
+#[test]
+fn a_scaled_camera_sees_rays_at_the_scaled_pixels() {
+    let cam = webcam();
+    let half = cam.scaled_to(320, 240);
+    assert_eq!(
+        (half.intrinsics.width_px, half.intrinsics.height_px),
+        (320, 240)
+    );
+    half.check().unwrap();
+    for pixel in [[0.0, 0.0], [100.0, 50.0], [319.5, 239.5], [600.0, 420.0]] {
+        let ray = cam.unproject(pixel).unwrap();
+        let seen = half.project(ray).unwrap();
+        assert_relative_eq!(seen[0], (pixel[0] + 0.5) * 0.5 - 0.5, epsilon = 1e-6);
+        assert_relative_eq!(seen[1], (pixel[1] + 0.5) * 0.5 - 0.5, epsilon = 1e-6);
+    }
+    let pin = CameraModel::pinhole(400.0, 400.0, 159.5, 119.5, 320, 240);
+    pin.check().unwrap();
+    assert_relative_eq!(pin.project([0.0, 0.0, 1.0]).unwrap()[0], 159.5);
+    assert_eq!(pin.distortion, Distortion::NONE);
+}

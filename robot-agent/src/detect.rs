@@ -36,8 +36,10 @@ use thiserror::Error;
 #[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
     /// The ball's colour window.
+    #[serde(deserialize_with = "thresholds_over_default")]
     pub thresholds: HsvThresholds,
     /// The widest the colour window may become by lighting adaptation.
+    #[serde(deserialize_with = "limits_over_default")]
     pub limits: HsvThresholds,
     /// Fraction of the way the thresholds move towards an accepted ball's colours.
     pub adapt_rate: f64,
@@ -90,6 +92,20 @@ impl Default for DetectorConfig {
             colour_check: ColourCheckConfig::default(),
         }
     }
+}
+
+/// A `thresholds` table's missing keys keep the default window's.
+fn thresholds_over_default<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> Result<HsvThresholds, D::Error> {
+    HsvThresholds::deserialize_over(deserializer, DetectorConfig::default().thresholds)
+}
+
+/// A `limits` table's missing keys keep the default limits'.
+fn limits_over_default<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> Result<HsvThresholds, D::Error> {
+    HsvThresholds::deserialize_over(deserializer, DetectorConfig::default().limits)
 }
 
 /// Why the detector could not be built or run.

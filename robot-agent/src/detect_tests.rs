@@ -274,3 +274,110 @@ fn white_alone_never_makes_a_candidate() {
     let proposals = detector.propose(&image, Some(&lens), &mut NoClock).unwrap();
     assert!(proposals.items.is_empty(), "{:?}", proposals.items);
 }
+
+/// The settings a `--config` file's TOML gives.
+fn settings(toml_text: &str) -> Result<DetectorConfig, toml::de::Error> {
+    toml::from_str::<crate::agent::PipelineConfig>(toml_text).map(|c| c.detector)
+}
+
+/// A table with one key changes that key and keeps every other default, whichever table
+/// it is; the colour windows keep their own defaults, not each other's.
+#[test]
+fn a_one_key_settings_table_keeps_the_other_defaults() {
+    let d = DetectorConfig::default();
+    let c = settings("[detector.thresholds]\nhue_hi_deg = 40.0").unwrap();
+    assert_eq!(
+        c,
+        DetectorConfig {
+            thresholds: HsvThresholds {
+                hue_hi_deg: 40.0,
+                ..d.thresholds
+            },
+            ..d
+        }
+    );
+    let c = settings("[detector.limits]\nsat_min = 0.2").unwrap();
+    assert_eq!(
+        c,
+        DetectorConfig {
+            limits: HsvThresholds {
+                sat_min: 0.2,
+                ..d.limits
+            },
+            ..d
+        }
+    );
+    let c = settings("[detector.hough]\nr_max_px = 60.0").unwrap();
+    assert_eq!(
+        c,
+        DetectorConfig {
+            hough: HoughConfig {
+                r_max_px: 60.0,
+                ..d.hough
+            },
+            ..d
+        }
+    );
+    let c = settings("[detector.pattern.white]\nval_min = 0.3").unwrap();
+    assert_eq!(
+        c,
+        DetectorConfig {
+            pattern: PatternConfig {
+                white: HsvThresholds {
+                    val_min: 0.3,
+                    ..d.pattern.white
+                },
+                ..d.pattern
+            },
+            ..d
+        }
+    );
+    let c = settings("[detector.pattern]\nenabled = false").unwrap();
+    assert_eq!(
+        c,
+        DetectorConfig {
+            pattern: PatternConfig {
+                enabled: false,
+                ..d.pattern
+            },
+            ..d
+        }
+    );
+    let c = settings("[detector.colour_check]\nk = 3").unwrap();
+    assert_eq!(
+        c,
+        DetectorConfig {
+            colour_check: ColourCheckConfig {
+                k: 3,
+                ..d.colour_check
+            },
+            ..d
+        }
+    );
+    // Empty tables and an empty file are the defaults.
+    let empty = "[detector]\n[detector.thresholds]\n[detector.limits]\n[detector.hough]\n\
+                 [detector.pattern]\n[detector.pattern.white]\n[detector.colour_check]";
+    assert_eq!(settings(empty).unwrap(), d);
+    assert_eq!(settings("").unwrap(), d);
+    // What a one-key table gives builds a detector.
+    Detector::new(settings("[detector.limits]\nhue_hi_deg = 60.0").unwrap()).unwrap();
+}
+
+/// A misspelt key is an error in every table, naming the key.
+#[test]
+fn an_unknown_settings_key_is_an_error() {
+    for table in [
+        "detector",
+        "detector.thresholds",
+        "detector.limits",
+        "detector.hough",
+        "detector.pattern",
+        "detector.pattern.white",
+        "detector.colour_check",
+    ] {
+        let err = settings(&format!("[{table}]\nhue_low_deg = 5.0")).unwrap_err();
+        assert!(err.to_string().contains("hue_low_deg"), "[{table}]: {err}");
+    }
+    // A key of the wrong type is an error too.
+    assert!(settings("[detector.thresholds]\nsat_min = \"low\"").is_err());
+}

@@ -80,7 +80,7 @@ const MAX_RADIUS_PX: f64 = 1024.0;
 
 /// Settings of the circular Hough transform.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct HoughConfig {
     /// Smallest radius searched, pixels.
     pub r_min_px: f64,

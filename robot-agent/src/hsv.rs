@@ -155,6 +155,39 @@ impl HsvThresholds {
     }
 }
 
+/// A colour window in a settings file, each bound optional.
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PartialThresholds {
+    hue_lo_deg: Option<f64>,
+    hue_hi_deg: Option<f64>,
+    sat_min: Option<f64>,
+    sat_max: Option<f64>,
+    val_min: Option<f64>,
+    val_max: Option<f64>,
+}
+
+impl HsvThresholds {
+    /// Reads a colour window whose bounds are each optional, the missing ones taken from
+    /// `base`. The detector's settings hold several windows with different defaults (the
+    /// ball's, its adaptation limits, a patterned ball's patches), so a window alone has no
+    /// single `Default` a partial table could fall back on.
+    pub fn deserialize_over<'de, D: serde::Deserializer<'de>>(
+        deserializer: D,
+        base: HsvThresholds,
+    ) -> Result<HsvThresholds, D::Error> {
+        let p = PartialThresholds::deserialize(deserializer)?;
+        Ok(HsvThresholds {
+            hue_lo_deg: p.hue_lo_deg.unwrap_or(base.hue_lo_deg),
+            hue_hi_deg: p.hue_hi_deg.unwrap_or(base.hue_hi_deg),
+            sat_min: p.sat_min.unwrap_or(base.sat_min),
+            sat_max: p.sat_max.unwrap_or(base.sat_max),
+            val_min: p.val_min.unwrap_or(base.val_min),
+            val_max: p.val_max.unwrap_or(base.val_max),
+        })
+    }
+}
+
 /// Converts an 8-bit RGB colour to HSV: hue in degrees in [0, 360) (0 for greys), saturation
 /// `(max − min) / max` (0 for black) and value `max / 255`, both in [0, 1].
 pub fn rgb_to_hsv(r: u8, g: u8, b: u8) -> (f64, f64, f64) {

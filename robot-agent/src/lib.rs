@@ -39,6 +39,8 @@
 //! - [`two_colour`]: the two-colour mask of a patterned ball (the ball's colour with white
 //!   patches) as one disc.
 //! - [`detect`]: one frame to ball candidates through the stages above.
+//! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
+//!   what became of it, and the photo with the candidates drawn.
 //!
 //! Projection and the agent:
 //! - [`kinematics`]: the MiRo's chain from pose and head joints to each camera.
@@ -77,6 +79,7 @@ pub mod morphology;
 pub mod patch;
 #[cfg(test)]
 mod patch_fixtures;
+pub mod photo;
 pub mod pipeline;
 pub mod projection;
 pub mod rectify;

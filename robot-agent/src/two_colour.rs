@@ -81,7 +81,15 @@ pub struct PatternConfig {
     /// A possibly patterned blob's hull is grown by this fraction of its radius, in [0, 1].
     pub hull_growth: f64,
     /// The patches' colour window (hue in degrees, saturation and value 0..1).
+    #[serde(deserialize_with = "white_over_default")]
     pub white: HsvThresholds,
+}
+
+/// A `white` table's missing keys keep the default patch colour's.
+fn white_over_default<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> Result<HsvThresholds, D::Error> {
+    HsvThresholds::deserialize_over(deserializer, PatternConfig::default().white)
 }
 
 impl Default for PatternConfig {

@@ -1,10 +1,13 @@
 //! `robot-agent`: a MiRo's ball perception. `run` finds the ball in camera frames and
 //! publishes observations and status over Zenoh; `calibrate` fits a camera model to
-//! chessboard images; `train` fits the ball classifier.
+//! chessboard images; `train` fits the ball classifier; `detect` finds the ball in a folder
+//! of photos.
 
 mod bench_cmd;
 mod calibrate_cmd;
+mod camera_args;
 mod defaults;
+mod detect_cmd;
 mod frames_io;
 mod ros_frames;
 mod run;
@@ -34,6 +37,8 @@ enum Command {
     Train(train_cmd::TrainArgs),
     /// Times the perception pipeline per frame, by stage, on rendered frames.
     Bench(bench_cmd::BenchArgs),
+    /// Finds the ball in a folder of photos (no index, no pose): every candidate, as JSON lines.
+    Detect(detect_cmd::DetectArgs),
 }
 
 fn main() -> Result<()> {
@@ -54,5 +59,6 @@ fn main() -> Result<()> {
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Train(args) => train_cmd::run(args),
         Command::Bench(args) => bench_cmd::run(args),
+        Command::Detect(args) => detect_cmd::run(args),
     }
 }
