@@ -48,6 +48,10 @@
 //!   ball per frame.
 //! - [`agent`]: a robot's perception state between frames: observations, status, counters.
 //! - [`builtin`]: the shipped calibration of the simulated camera and the ball classifier.
+//!
+//! Labelled photographs:
+//! - [`labels`]: labelled ball boxes and their checks, shared by [`voc`] (Pascal VOC XML)
+//!   and [`yolo`] (YOLO text) label readers.
 
 pub mod agent;
 pub mod builtin;
@@ -69,6 +73,7 @@ pub mod image;
 pub mod image_io;
 pub mod kinematics;
 pub mod kmeans;
+pub mod labels;
 pub mod morphology;
 pub mod patch;
 #[cfg(test)]
@@ -83,3 +88,5 @@ mod svm_model;
 mod test_fixtures;
 pub mod train;
 pub mod two_colour;
+pub mod voc;
+pub mod yolo;
