@@ -52,6 +52,7 @@
 //! Labelled photographs:
 //! - [`labels`]: labelled ball boxes and their checks, shared by [`voc`] (Pascal VOC XML)
 //!   and [`yolo`] (YOLO text) label readers.
+//! - [`label_eval`]: the detector's candidates scored against labelled boxes.
 
 pub mod agent;
 pub mod builtin;
@@ -73,6 +74,7 @@ pub mod image;
 pub mod image_io;
 pub mod kinematics;
 pub mod kmeans;
+pub mod label_eval;
 pub mod labels;
 pub mod morphology;
 pub mod patch;
