@@ -169,6 +169,11 @@ impl LabelEval {
         });
     }
 
+    /// The last image scored.
+    pub fn last(&self) -> Option<&ImageRow> {
+        self.rows.last()
+    }
+
     /// The scores so far; `timing_ms` is the shell's (it owns the clock and the workspace's
     /// quantile).
     pub fn report(&self, timing_ms: Option<TimingMs>) -> LabelReport {

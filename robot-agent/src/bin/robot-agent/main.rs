@@ -1,11 +1,16 @@
 //! `robot-agent`: a MiRo's ball perception. `run` finds the ball in camera frames and
 //! publishes observations and status over Zenoh; `calibrate` fits a camera model to
-//! chessboard images; `train` fits the ball classifier.
+//! chessboard images; `train` fits the ball classifier; `evaluate` scores the detector on
+//! labelled photos.
 
+mod bar_chart;
 mod bench_cmd;
 mod calibrate_cmd;
 mod defaults;
+mod evaluate_cmd;
 mod frames_io;
+mod labelled;
+mod labelled_patches;
 mod run;
 mod sim_patches;
 mod sim_source;
@@ -33,6 +38,8 @@ enum Command {
     Train(train_cmd::TrainArgs),
     /// Times the perception pipeline per frame, by stage, on rendered frames.
     Bench(bench_cmd::BenchArgs),
+    /// Scores the detector on photos with labelled ball boxes (Pascal VOC or YOLO).
+    Evaluate(Box<evaluate_cmd::EvaluateArgs>),
 }
 
 fn main() -> Result<()> {
@@ -53,5 +60,6 @@ fn main() -> Result<()> {
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Train(args) => train_cmd::run(args),
         Command::Bench(args) => bench_cmd::run(args),
+        Command::Evaluate(args) => evaluate_cmd::run(*args),
     }
 }

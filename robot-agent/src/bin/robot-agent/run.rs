@@ -139,7 +139,7 @@ pub fn load_models(left: Option<&Path>, right: Option<&Path>) -> Result<[CameraM
     Ok([l, r])
 }
 
-fn load_config(path: Option<&Path>) -> Result<PipelineConfig> {
+pub fn load_config(path: Option<&Path>) -> Result<PipelineConfig> {
     match path {
         None => Ok(PipelineConfig::default()),
         Some(p) => {
