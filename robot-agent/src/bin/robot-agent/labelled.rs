@@ -225,6 +225,17 @@ impl LabelledFolder {
                 args.labels.display()
             );
         }
+        let yolo_file = items
+            .iter()
+            .filter_map(|i| i.label.as_ref())
+            .find(|l| l.extension().is_some_and(|e| e == "txt"));
+        if let (Some(file), None) = (yolo_file, &yolo) {
+            bail!(
+                "{} is a YOLO label file: give --ball-class ID, or put a classes.txt or \
+                 data.yaml names list next to the labels",
+                file.display()
+            );
+        }
         Ok(Self {
             items,
             ball_names,
