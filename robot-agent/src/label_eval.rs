@@ -35,7 +35,7 @@ pub const SIZE_BANDS_PX: [(f64, f64); 4] = [
 /// The band name of `SIZE_BANDS_PX[i]`, e.g. `10–20 px`.
 pub fn band_name(i: usize) -> String {
     match SIZE_BANDS_PX.get(i) {
-        Some(&(lo, hi)) if lo == 0.0 => format!("< {hi} px"),
+        Some(&(0.0, hi)) => format!("< {hi} px"),
         Some(&(lo, hi)) if hi.is_infinite() => format!(">= {lo} px"),
         Some(&(lo, hi)) => format!("{lo}–{hi} px"),
         None => String::new(),
