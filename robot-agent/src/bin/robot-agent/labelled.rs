@@ -16,12 +16,12 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct LabelledArgs {
-    /// Folder of photographs (PNG or JPEG).
-    #[arg(long)]
-    pub images: PathBuf,
+    /// Folder of labelled photographs (PNG or JPEG).
+    #[arg(long, requires = "labels")]
+    pub images: Option<PathBuf>,
     /// Folder of label files named after the images: Pascal VOC `.xml` or YOLO `.txt`.
-    #[arg(long)]
-    pub labels: PathBuf,
+    #[arg(long, requires = "images")]
+    pub labels: Option<PathBuf>,
     /// A YOLO class id that is a ball (repeatable). Default: from a classes.txt or
     /// data.yaml names list next to the labels.
     #[arg(long = "ball-class")]
@@ -169,8 +169,18 @@ fn names_list(dir: &Path) -> Result<Option<(PathBuf, Vec<String>)>> {
     Ok(None)
 }
 
+impl LabelledArgs {
+    /// Whether a labelled folder was given.
+    pub fn given(&self) -> bool {
+        self.images.is_some()
+    }
+}
+
 impl LabelledFolder {
     pub fn open(args: &LabelledArgs) -> Result<Self> {
+        let (Some(images), Some(labels)) = (&args.images, &args.labels) else {
+            bail!("give the labelled photos as --images DIR --labels DIR");
+        };
         let ball_names = if args.ball_names.is_empty() {
             BallNames::default()
         } else {
@@ -182,7 +192,7 @@ impl LabelledFolder {
                 known_classes: None,
             })
         } else {
-            match names_list(&args.labels)? {
+            match names_list(labels)? {
                 Some((path, names)) => {
                     let ids = BallClassIds::from_names(&names, &ball_names);
                     eprintln!(
@@ -196,33 +206,33 @@ impl LabelledFolder {
                 None => None,
             }
         };
-        if !args.labels.is_dir() {
-            bail!("{} is not a folder of labels", args.labels.display());
+        if !labels.is_dir() {
+            bail!("{} is not a folder of labels", labels.display());
         }
         let mut items = Vec::new();
         let mut labelled = 0;
-        for image in crate::frames_io::image_files(&args.images)? {
+        for image in crate::frames_io::image_files(images)? {
             let stem = image.file_stem().unwrap_or_default();
             let label = ["xml", "txt"]
                 .iter()
                 .map(|ext| {
                     let mut name = stem.to_os_string();
                     name.push(format!(".{ext}"));
-                    args.labels.join(name)
+                    labels.join(name)
                 })
                 .find(|p| p.is_file());
             labelled += usize::from(label.is_some());
             items.push(Item { image, label });
         }
         if items.is_empty() {
-            bail!("no PNG or JPEG images in {}", args.images.display());
+            bail!("no PNG or JPEG images in {}", images.display());
         }
         if labelled == 0 {
             bail!(
                 "none of the {} images in {} has a label file (NAME.xml or NAME.txt) in {}",
                 items.len(),
-                args.images.display(),
-                args.labels.display()
+                images.display(),
+                labels.display()
             );
         }
         let yolo_file = items

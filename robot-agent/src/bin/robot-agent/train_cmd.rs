@@ -26,7 +26,7 @@ pub struct TrainArgs {
     /// each ball box is a positive, candidates and random windows away from the balls are
     /// negatives.
     #[command(flatten)]
-    pub labelled: Option<crate::labelled::LabelledArgs>,
+    pub labelled: crate::labelled::LabelledArgs,
     /// Random negative windows per labelled photo.
     #[arg(long, default_value_t = 8)]
     pub random_negatives: usize,
@@ -73,11 +73,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let mut progress = |line: &str| eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64());
     let (positives, negatives) = match (&args.positives, &args.negatives) {
         (Some(p), Some(n)) => (folder_patches(p)?, folder_patches(n)?),
-        _ if args.labelled.is_some() => {
-            let Some(labelled) = &args.labelled else {
-                bail!("give --images and --labels");
-            };
-            let folder = crate::labelled::LabelledFolder::open(labelled)?;
+        _ if args.labelled.given() => {
+            let folder = crate::labelled::LabelledFolder::open(&args.labelled)?;
             crate::labelled_patches::labelled_patches(
                 &folder,
                 args.random_negatives,
