@@ -54,6 +54,10 @@
 //! Recordings:
 //! - [`ros_msg`]: the ROS messages of a MiRo's recordings (compressed images, joint states,
 //!   poses, odometry) decoded from ROS 1 and ROS 2 (CDR) bytes.
+//! Labelled photographs:
+//! - [`labels`]: labelled ball boxes and their checks, shared by [`voc`] (Pascal VOC XML)
+//!   and [`yolo`] (YOLO text) label readers.
+//! - [`label_eval`]: the detector's candidates scored against labelled boxes.
 
 pub mod agent;
 pub mod builtin;
@@ -75,6 +79,8 @@ pub mod image;
 pub mod image_io;
 pub mod kinematics;
 pub mod kmeans;
+pub mod label_eval;
+pub mod labels;
 pub mod morphology;
 pub mod patch;
 #[cfg(test)]
@@ -93,3 +99,5 @@ mod svm_model;
 mod test_fixtures;
 pub mod train;
 pub mod two_colour;
+pub mod voc;
+pub mod yolo;

@@ -1,14 +1,18 @@
 //! `robot-agent`: a MiRo's ball perception. `run` finds the ball in camera frames and
 //! publishes observations and status over Zenoh; `calibrate` fits a camera model to
 //! chessboard images; `train` fits the ball classifier; `detect` finds the ball in a folder
-//! of photos.
+//! of photos; `evaluate` scores the detector on labelled photos.
 
+mod bar_chart;
 mod bench_cmd;
 mod calibrate_cmd;
 mod camera_args;
 mod defaults;
 mod detect_cmd;
+mod evaluate_cmd;
 mod frames_io;
+mod labelled;
+mod labelled_patches;
 mod ros_frames;
 mod run;
 mod sim_patches;
@@ -39,6 +43,8 @@ enum Command {
     Bench(bench_cmd::BenchArgs),
     /// Finds the ball in a folder of photos (no index, no pose): every candidate, as JSON lines.
     Detect(detect_cmd::DetectArgs),
+    /// Scores the detector on photos with labelled ball boxes (Pascal VOC or YOLO).
+    Evaluate(Box<evaluate_cmd::EvaluateArgs>),
 }
 
 fn main() -> Result<()> {
@@ -60,5 +66,6 @@ fn main() -> Result<()> {
         Command::Train(args) => train_cmd::run(args),
         Command::Bench(args) => bench_cmd::run(args),
         Command::Detect(args) => detect_cmd::run(args),
+        Command::Evaluate(args) => evaluate_cmd::run(*args),
     }
 }

@@ -56,7 +56,7 @@ pub fn label(center_px: [f64; 2], radius_px: f64, truth: Option<&BallTruth>) -> 
 }
 
 /// Mining windows: the ball's widest colour window and white/grey.
-fn miners() -> Result<Vec<Detector>> {
+pub fn miners() -> Result<Vec<Detector>> {
     let ball = DetectorConfig::default();
     let ball_wide = DetectorConfig {
         thresholds: ball.limits,

@@ -9,14 +9,27 @@ use std::time::Instant;
 #[derive(Debug, clap::Args)]
 pub struct TrainArgs {
     /// Folder of ball patches (PNG or JPEG, any size; each image is one candidate window).
-    #[arg(long, requires = "negatives", required_unless_present = "from_sim")]
+    #[arg(
+        long,
+        requires = "negatives",
+        required_unless_present_any = ["from_sim", "images"],
+        conflicts_with = "images"
+    )]
     pub positives: Option<PathBuf>,
     /// Folder of non-ball patches.
     #[arg(long, requires = "positives")]
     pub negatives: Option<PathBuf>,
     /// Mine labelled candidates from simulated matches instead.
-    #[arg(long, conflicts_with_all = ["positives", "negatives"])]
+    #[arg(long, conflicts_with_all = ["positives", "negatives", "images"])]
     pub from_sim: bool,
+    /// Labelled photos instead (`--images DIR --labels DIR`, as `evaluate` takes them):
+    /// each ball box is a positive, candidates and random windows away from the balls are
+    /// negatives.
+    #[command(flatten)]
+    pub labelled: crate::labelled::LabelledArgs,
+    /// Random negative windows per labelled photo.
+    #[arg(long, default_value_t = 8)]
+    pub random_negatives: usize,
     /// Simulated matches mined with `--from-sim`.
     #[arg(long, default_value_t = 6)]
     pub matches: u64,
@@ -60,11 +73,20 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let mut progress = |line: &str| eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64());
     let (positives, negatives) = match (&args.positives, &args.negatives) {
         (Some(p), Some(n)) => (folder_patches(p)?, folder_patches(n)?),
+        _ if args.labelled.given() => {
+            let folder = crate::labelled::LabelledFolder::open(&args.labelled)?;
+            crate::labelled_patches::labelled_patches(
+                &folder,
+                args.random_negatives,
+                args.seed,
+                &mut progress,
+            )?
+        }
         _ if args.from_sim => {
             let [model, _] = crate::run::load_models(None, None)?;
             crate::sim_patches::mine(&model, args.matches, args.seconds, args.seed, &mut progress)?
         }
-        _ => bail!("give --positives and --negatives, or --from-sim"),
+        _ => bail!("give --positives and --negatives, --images and --labels, or --from-sim"),
     };
     progress(&format!(
         "{} ball patches, {} others",
