@@ -106,6 +106,16 @@ impl Agent {
         &self.robot_id
     }
 
+    /// The calibration the agent uses for `camera`.
+    pub fn camera_model(&self, camera: Camera) -> &CameraModel {
+        &self.models[index(camera)]
+    }
+
+    /// Replaces `camera`'s calibration (e.g. one rescaled to the frames' size).
+    pub fn set_camera_model(&mut self, camera: Camera, model: CameraModel) {
+        self.models[index(camera)] = model;
+    }
+
     /// Frames processed so far.
     pub fn frames(&self) -> u64 {
         self.frames

@@ -36,6 +36,11 @@ pub struct RunArgs {
     /// The right camera's calibration.
     #[arg(long, requires = "calibration")]
     pub calibration_right: Option<PathBuf>,
+    /// When the frames are not the size the calibration was made at (a resized stream),
+    /// scale the calibration to them (with a warning) instead of stopping. Frames of
+    /// another shape (a crop) are refused either way.
+    #[arg(long)]
+    pub rescale_calibration: bool,
     /// Pipeline settings (TOML: `[detector]`, `[noise]`, `[validation]`).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -249,6 +254,12 @@ fn perceive(
         if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
             agent.on_ball_state(state);
         }
+        fit_calibration(
+            &mut agent,
+            frame.camera,
+            &frame.image,
+            args.rescale_calibration,
+        )?;
         let input = FrameInput {
             stamp: frame.stamp,
             camera: frame.camera,
@@ -333,6 +344,30 @@ fn perceive(
         sink.finish()?;
     }
     Ok(summary)
+}
+
+/// Checks that `camera`'s calibration is for frames of `image`'s size; a calibration for
+/// another size is an error, or with `rescale` is scaled to the frames once (a warning).
+fn fit_calibration(
+    agent: &mut Agent,
+    camera: proto::Camera,
+    image: &robot_agent::image::RgbImage,
+    rescale: bool,
+) -> Result<()> {
+    let model = agent.camera_model(camera);
+    let (w, h) = (image.width(), image.height());
+    let (cw, ch) = (model.intrinsics.width_px, model.intrinsics.height_px);
+    if (cw, ch) == (w, h) {
+        return Ok(());
+    }
+    let fitted = robot_agent::photo::fit_to_photo(model, w, h, rescale).with_context(|| {
+        format!("the {camera:?} camera's frames (use --rescale-calibration for a resized stream)")
+    })?;
+    tracing::warn!(
+        "the {camera:?} camera's calibration is for {cw}×{ch} px frames: scaled to the frames' {w}×{h} px"
+    );
+    agent.set_camera_model(camera, fitted);
+    Ok(())
 }
 
 /// Whether a pixel lies on the image.

@@ -1,0 +1,89 @@
+//! Frames of another size than the calibration: refused with a clear error, or played
+//! with the calibration scaled to them when asked.
+
+#![allow(clippy::unwrap_used)]
+
+use robot_agent::image::RgbImage;
+use robot_agent::image_io::{encode_png, load_rgb};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_robot-agent");
+
+fn agent(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(["run", "--robot-id", "miro1", "--offline"])
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap()
+}
+
+/// Every other pixel in each direction, averaged over its 2×2 block.
+fn half_size(image: &RgbImage) -> RgbImage {
+    let (w, h) = (image.width() / 2, image.height() / 2);
+    let mut data = Vec::with_capacity((w * h * 3) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..3 {
+                let sum: u32 = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                    .iter()
+                    .map(|(dx, dy)| u32::from(image.pixel(2 * x + dx, 2 * y + dy).unwrap()[c]))
+                    .sum();
+                data.push((sum / 4) as u8);
+            }
+        }
+    }
+    RgbImage::new(w, h, data).unwrap()
+}
+
+#[test]
+fn a_calibration_for_another_frame_size_is_refused_or_rescaled() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("frames");
+    let recorded = agent(&[
+        "--scenario",
+        "seed-1-across",
+        "--seed",
+        "2",
+        "--fast",
+        "--record-frames",
+        folder.to_str().unwrap(),
+    ]);
+    assert!(recorded.status.success());
+    let mut n = 0;
+    for entry in std::fs::read_dir(&folder).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "png") {
+            let small = half_size(&load_rgb(&path).unwrap());
+            std::fs::write(&path, encode_png(&small).unwrap()).unwrap();
+            n += 1;
+        }
+    }
+    assert!(n >= 30, "{n} frames recorded");
+    let source = format!("images:{}", folder.display());
+
+    let refused = agent(&["--source", &source]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(
+        stderr.contains("640×360") && stderr.contains("320×180"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("--rescale-calibration"), "{stderr}");
+
+    let rescaled = agent(&["--source", &source, "--rescale-calibration"]);
+    let stdout = String::from_utf8_lossy(&rescaled.stdout);
+    let stderr = String::from_utf8_lossy(&rescaled.stderr);
+    assert!(rescaled.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains("scaled to the frames' 320×180 px"),
+        "{stderr}"
+    );
+    let line = stdout.lines().find(|l| l.starts_with("miro1: ")).unwrap();
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let observations: u64 = words[3].parse().unwrap();
+    assert!(
+        observations > 0,
+        "no ball found in the half-size frames: {line}"
+    );
+}
