@@ -54,6 +54,7 @@
 //! Recordings:
 //! - [`ros_msg`]: the ROS messages of a MiRo's recordings (compressed images, joint states,
 //!   poses, odometry) decoded from ROS 1 and ROS 2 (CDR) bytes.
+//!
 //! Labelled photographs:
 //! - [`labels`]: labelled ball boxes and their checks, shared by [`voc`] (Pascal VOC XML)
 //!   and [`yolo`] (YOLO text) label readers.
