@@ -237,17 +237,33 @@ fn calibrate_writes_a_usable_calibration_from_photographs() {
         robot_agent::calibrate::Calibration::from_toml_str(&std::fs::read_to_string(&out).unwrap())
             .unwrap();
     assert!(c.rms_px < 0.5, "{}", c.rms_px);
-    // The agent takes it as its camera model.
-    let (frames, _, _) = run_offline(&[
-        "--scenario",
-        "seed-1-across",
-        "--duration",
-        "0.2",
-        "--fast",
-        "--calibration",
-        out.to_str().unwrap(),
-    ]);
-    assert!(frames > 0);
+    // The agent takes it as its camera model: for 640×480 photos, so it refuses the
+    // simulator's 640×360 frames, which are not a resize of them, naming both sizes.
+    let refused = Command::new(BIN)
+        .args([
+            "run",
+            "--robot-id",
+            "miro1",
+            "--offline",
+            "--scenario",
+            "seed-1-across",
+        ])
+        .args([
+            "--duration",
+            "0.2",
+            "--fast",
+            "--rescale-calibration",
+            "--calibration",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(
+        stderr.contains("640×480") && stderr.contains("640×360") && stderr.contains("shape"),
+        "{stderr}"
+    );
 }
 
 #[test]
