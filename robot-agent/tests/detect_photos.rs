@@ -4,6 +4,8 @@
 
 #![allow(clippy::unwrap_used)]
 
+mod common;
+use common::halved;
 use proto::Pose2;
 use robot_agent::image::RgbImage;
 use serde_json::Value;
@@ -30,24 +32,6 @@ fn rendered(ball_m: Option<[f64; 2]>) -> (RgbImage, Option<([f64; 2], f64)>) {
         .and_then(|t| Some((t.center_px?, t.radius_px)));
     let image = RgbImage::new(frame.width, frame.height, frame.rgb).unwrap();
     (image, truth)
-}
-
-/// The image at half its size, each pixel the mean of four.
-fn halved(image: &RgbImage) -> RgbImage {
-    let (w, h) = (image.width() / 2, image.height() / 2);
-    let mut data = Vec::with_capacity((w * h * 3) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            for c in 0..3 {
-                let sum: u32 = [(0, 0), (1, 0), (0, 1), (1, 1)]
-                    .iter()
-                    .map(|(dx, dy)| u32::from(image.pixel(2 * x + dx, 2 * y + dy).unwrap()[c]))
-                    .sum();
-                data.push((sum / 4) as u8);
-            }
-        }
-    }
-    RgbImage::new(w, h, data).unwrap()
 }
 
 fn write_png(path: &Path, image: &RgbImage) {

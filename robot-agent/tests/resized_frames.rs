@@ -3,7 +3,8 @@
 
 #![allow(clippy::unwrap_used)]
 
-use robot_agent::image::RgbImage;
+mod common;
+use common::halved;
 use robot_agent::image_io::{encode_png, load_rgb};
 use std::process::{Command, Output};
 
@@ -16,24 +17,6 @@ fn agent(args: &[&str]) -> Output {
         .env("RUST_LOG", "warn")
         .output()
         .unwrap()
-}
-
-/// Every other pixel in each direction, averaged over its 2×2 block.
-fn half_size(image: &RgbImage) -> RgbImage {
-    let (w, h) = (image.width() / 2, image.height() / 2);
-    let mut data = Vec::with_capacity((w * h * 3) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            for c in 0..3 {
-                let sum: u32 = [(0, 0), (1, 0), (0, 1), (1, 1)]
-                    .iter()
-                    .map(|(dx, dy)| u32::from(image.pixel(2 * x + dx, 2 * y + dy).unwrap()[c]))
-                    .sum();
-                data.push((sum / 4) as u8);
-            }
-        }
-    }
-    RgbImage::new(w, h, data).unwrap()
 }
 
 #[test]
@@ -54,7 +37,7 @@ fn a_calibration_for_another_frame_size_is_refused_or_rescaled() {
     for entry in std::fs::read_dir(&folder).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "png") {
-            let small = half_size(&load_rgb(&path).unwrap());
+            let small = halved(&load_rgb(&path).unwrap());
             std::fs::write(&path, encode_png(&small).unwrap()).unwrap();
             n += 1;
         }
