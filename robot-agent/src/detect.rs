@@ -19,14 +19,16 @@
 //! World validation and the choice of at most one ball per frame happen after projection
 //! (see [`crate::pipeline`]).
 
+use crate::blob_circle::{blob_circle, blob_size_px, is_roundish, ring_share, shrink, unshrink};
 use crate::camera::CameraModel;
-use crate::components::joined_components;
+use crate::components::{BoundingBox, Component, joined_components};
 use crate::hough::{Circle, HoughConfig, HoughError};
 use crate::hsv::{HsvError, HsvThresholds, MaskLut};
 use crate::image::{ImageError, Mask, RgbImage};
 use crate::kmeans::{ColourCheckConfig, ColourError};
 use crate::morphology::{close, open};
-use crate::rectify::LocalView;
+use crate::rectify::{LocalView, MAX_HALF_SIDE_PX};
+use crate::seeded_mask::SeededLut;
 use crate::two_colour::{Hull, PatternConfig, PatternError, region_mask};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -53,6 +55,18 @@ pub struct DetectorConfig {
     pub max_blobs: usize,
     /// Margin added around each blob's box, pixels.
     pub roi_margin_px: u32,
+    /// Grow the mask from the colour window's pixels through the wider `limits` window
+    /// ([`crate::seeded_mask`]), decided per image; otherwise the window alone.
+    pub seeded: bool,
+    /// How far the seeded mask grows from the strict window's pixels, pixels (0: as far
+    /// as the wider window reaches).
+    pub seeded_reach_px: u32,
+    /// A blob whose larger side is at most this many pixels (a far ball) is proposed as
+    /// its own circle, without the Hough transform.
+    pub small_blob_max_px: u32,
+    /// A roundish blob in which the Hough transform found no circle is proposed as its
+    /// own circle ([`crate::blob_circle`]).
+    pub blob_fallback: bool,
     /// The circular Hough transform's settings.
     pub hough: HoughConfig,
     /// A patterned ball (the ball's colour with white patches): the two-colour mask.
@@ -87,6 +101,10 @@ impl Default for DetectorConfig {
             min_blob_area_px: 12,
             max_blobs: 6,
             roi_margin_px: 4,
+            seeded: true,
+            seeded_reach_px: 4,
+            small_blob_max_px: 9,
+            blob_fallback: true,
             hough: HoughConfig::default(),
             pattern: PatternConfig::default(),
             colour_check: ColourCheckConfig::default(),
@@ -203,6 +221,8 @@ pub struct Detector {
     config: DetectorConfig,
     thresholds: HsvThresholds,
     lut: MaskLut,
+    /// The window grown into the limits, when `config.seeded`.
+    seeded: SeededLut,
     /// The patches' colour, when patterned balls are looked for.
     white_lut: Option<MaskLut>,
 }
@@ -221,6 +241,7 @@ impl Detector {
             config,
             thresholds: config.thresholds,
             lut: MaskLut::new(&config.thresholds)?,
+            seeded: SeededLut::new(&config.thresholds, &config.limits)?,
             white_lut: if config.pattern.enabled {
                 Some(MaskLut::new(&config.pattern.white)?)
             } else {
@@ -290,7 +311,12 @@ impl Detector {
         clock: &mut dyn StageClock,
     ) -> Result<Proposals, DetectError> {
         let cfg = &self.config;
-        let mask = self.lut.apply(image);
+        let (mask, seeds) = if cfg.seeded {
+            let (grown, seeds) = self.seeded.apply_with_seeds(image, cfg.seeded_reach_px);
+            (grown, Some(seeds))
+        } else {
+            (self.lut.apply(image), None)
+        };
         clock.mark("mask");
         let mask = if cfg.open_radius_px > 0 {
             open(&mask, cfg.open_radius_px)
@@ -303,7 +329,23 @@ impl Detector {
         } else {
             1
         };
-        let blobs = joined_components(&mask, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
+        let mut blobs = joined_components(&mask, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
+        if let Some(seeds) = &seeds {
+            // A ball that the growth joined to a bigger region of pale ball-like colours
+            // (a warm wall, a hand) is searched again around its own seeds.
+            let seed_blobs =
+                joined_components(seeds, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
+            let merged: Vec<Component> = seed_blobs
+                .into_iter()
+                .filter(|s| {
+                    blobs.iter().any(|g| {
+                        contains(&g.bbox, s.centroid_px)
+                            && blob_size_px(g) as f64 > MERGED_SIZE_RATIO * blob_size_px(s) as f64
+                    })
+                })
+                .collect();
+            blobs.extend(merged);
+        }
         clock.mark("blobs");
         // Circles per blob, in the blob's local view (with a model) or in the frame.
         let mut found: Vec<(Option<LocalView>, Vec<Circle>, bool)> = Vec::new();
@@ -316,62 +358,96 @@ impl Detector {
                 0.0
             };
             let b = &blob.bbox;
-            let size = (b.x_max - b.x_min).max(b.y_max - b.y_min) + 1;
+            let size = blob_size_px(blob);
+            let small = size <= cfg.small_blob_max_px;
+            // A blob Hough may miss, as its own circle (in frame pixels).
+            let own = (small
+                || (cfg.blob_fallback
+                    && is_roundish(blob, FALLBACK_MAX_ASPECT, FALLBACK_MIN_FILL)))
+            .then(|| blob_circle(blob));
             match model {
                 Some(model) => {
                     let half = 0.5 * f64::from(size) * (1.0 + growth) + f64::from(m);
-                    let Some(view) = LocalView::new(model, blob.centroid_px, half) else {
+                    // Big blobs are seen at a coarser scale, so the ball's radius stays
+                    // within the Hough transform's range.
+                    let max_half = (self.config.hough.r_max_px as u32 + m).min(MAX_HALF_SIDE_PX);
+                    let Some(view) = LocalView::fitting(model, blob.centroid_px, half, max_half)
+                    else {
                         continue;
                     };
                     // The view looks at the blob's centroid through its centre pixel.
                     let centre = f64::from(view.side() / 2);
-                    let patterned = match (hull, &self.white_lut) {
-                        (Some(hull), Some(lut)) => Some((
-                            view.sample_lut(image, lut)?,
-                            Hull {
-                                centre_px: [centre, centre],
-                                ..hull
-                            },
-                        )),
-                        _ => None,
+                    let in_view = |c: Circle| Circle {
+                        center_px: [centre, centre],
+                        radius_px: c.radius_px / view.scale(),
+                        ..c
                     };
-                    let circles = self.circles(view.sample_mask(&mask)?, patterned)?;
+                    let mut circles = Vec::new();
+                    if !small {
+                        let patterned = match (hull, &self.white_lut) {
+                            (Some(hull), Some(lut)) => Some((
+                                view.sample_lut(image, lut)?,
+                                Hull {
+                                    centre_px: [centre, centre],
+                                    radius_px: hull.radius_px / view.scale(),
+                                },
+                            )),
+                            _ => None,
+                        };
+                        circles = self.circles(view.sample_mask(&mask)?, patterned)?;
+                    }
+                    if circles.is_empty() {
+                        circles.extend(own.map(in_view));
+                    }
                     found.push((Some(view), circles, hull.is_some()));
                 }
                 None => {
-                    let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
-                    let x0 = b.x_min.saturating_sub(m);
-                    let y0 = b.y_min.saturating_sub(m);
-                    let x1 = (b.x_max + m).min(mask.width() - 1);
-                    let y1 = (b.y_max + m).min(mask.height() - 1);
-                    let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
-                    let roi = crop(&mask, x0, y0, w, h)?;
-                    let patterned = match (hull, &self.white_lut) {
-                        (Some(hull), Some(lut)) => Some((
-                            crop_lut(image, lut, x0, y0, w, h)?,
-                            Hull {
-                                centre_px: [
-                                    hull.centre_px[0] - f64::from(x0),
-                                    hull.centre_px[1] - f64::from(y0),
+                    let mut circles = Vec::new();
+                    if !small {
+                        let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
+                        let x0 = b.x_min.saturating_sub(m);
+                        let y0 = b.y_min.saturating_sub(m);
+                        let x1 = (b.x_max + m).min(mask.width() - 1);
+                        let y1 = (b.y_max + m).min(mask.height() - 1);
+                        let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
+                        // Shrunk so that the ball's radius is within the Hough range.
+                        let k = (f64::from(size) / (1.8 * self.config.hough.r_max_px))
+                            .ceil()
+                            .max(1.0) as u32;
+                        let roi = shrink(&crop(&mask, x0, y0, w, h)?, k);
+                        let patterned = match (hull, &self.white_lut) {
+                            (Some(hull), Some(lut)) => Some((
+                                shrink(&crop_lut(image, lut, x0, y0, w, h)?, k),
+                                Hull {
+                                    centre_px: [
+                                        (hull.centre_px[0] - f64::from(x0)) / f64::from(k),
+                                        (hull.centre_px[1] - f64::from(y0)) / f64::from(k),
+                                    ],
+                                    radius_px: hull.radius_px / f64::from(k),
+                                },
+                            )),
+                            _ => None,
+                        };
+                        let shift = |c: Circle| {
+                            let c = unshrink(c, k);
+                            Circle {
+                                center_px: [
+                                    c.center_px[0] + f64::from(x0),
+                                    c.center_px[1] + f64::from(y0),
                                 ],
-                                ..hull
-                            },
-                        )),
-                        _ => None,
-                    };
-                    let shift = |c: Circle| Circle {
-                        center_px: [
-                            c.center_px[0] + f64::from(x0),
-                            c.center_px[1] + f64::from(y0),
-                        ],
-                        ..c
-                    };
-                    let circles = self.circles(roi, patterned)?;
-                    found.push((
-                        None,
-                        circles.into_iter().map(shift).collect(),
-                        hull.is_some(),
-                    ));
+                                ..c
+                            }
+                        };
+                        circles = self
+                            .circles(roi, patterned)?
+                            .into_iter()
+                            .map(shift)
+                            .collect();
+                    }
+                    if circles.is_empty() {
+                        circles.extend(own);
+                    }
+                    found.push((None, circles, hull.is_some()));
                 }
             }
         }
@@ -389,7 +465,11 @@ impl Detector {
                             continue;
                         };
                         proposals.items.push(Proposal {
-                            frame: Circle { center_px, ..c },
+                            frame: Circle {
+                                center_px,
+                                radius_px: c.radius_px * view.scale(),
+                                ..c
+                            },
                             local: c,
                             view: Some(index),
                             angular_radius_rad: Some(
@@ -410,6 +490,9 @@ impl Detector {
                     })),
             }
         }
+        // A circle with the ball's colours all round it is a fragment of something bigger.
+        let fragment = |p: &Proposal| ring_share(image, &p.frame) > FRAGMENT_RING_SHARE;
+        proposals.items.retain(|p| !fragment(p));
         clock.mark("hough");
         Ok(proposals)
     }
@@ -469,11 +552,32 @@ impl Detector {
         next.val_max = self.config.limits.val_max;
         if next != self.thresholds {
             self.lut = MaskLut::new(&next)?;
+            self.seeded = SeededLut::new(&next, &self.config.limits)?;
             self.thresholds = next;
         }
         Ok(())
     }
 }
+
+/// A fallback blob must be about as wide as tall...
+const FALLBACK_MAX_ASPECT: f64 = 1.6;
+/// ... and fill most of its disc.
+const FALLBACK_MIN_FILL: f64 = 0.55;
+
+/// A seed blob inside a grown blob this many times its size was merged with something.
+const MERGED_SIZE_RATIO: f64 = 1.6;
+
+/// Whether a box holds a point.
+fn contains(b: &BoundingBox, p: [f64; 2]) -> bool {
+    p[0] >= f64::from(b.x_min)
+        && p[0] <= f64::from(b.x_max)
+        && p[1] >= f64::from(b.y_min)
+        && p[1] <= f64::from(b.y_max)
+}
+
+/// A blob with more of the ball's colours than this share around it is a fragment of
+/// something bigger, not proposed as its own circle.
+const FRAGMENT_RING_SHARE: f64 = 0.4;
 
 /// A window of a mask.
 fn crop(mask: &Mask, x0: u32, y0: u32, w: u32, h: u32) -> Result<Mask, ImageError> {

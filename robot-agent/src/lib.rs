@@ -23,10 +23,14 @@
 //! - [`image`]: the RGB8 frame and binary mask buffers of the detection pipeline.
 //! - [`hsv`]: HSV colour thresholds, the frame's colour mask (exact, or through a lookup
 //!   table), and lighting adaptation of the thresholds.
+//! - [`seeded_mask`]: the colour mask grown from the strict window's pixels through a
+//!   wider window, decided per image.
 //! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
 //! - [`components`]: connected components of a mask with area, bounding box and centroid,
 //!   optionally joining fragments a few pixels apart.
 //! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
+//! - [`blob_circle`]: circles straight from small or roundish blobs, and masks shrunk for
+//!   blobs too big for the Hough transform.
 //! - [`patch`]: the 32×32 candidate patch around a circle, with mirroring and rotation.
 //! - [`hog`]: the histogram-of-oriented-gradients descriptor of a patch (288 features).
 //! - [`svm`]: the RBF-kernel SVM candidate filter: SMO training, Platt-calibrated
@@ -61,6 +65,7 @@
 //! - [`label_eval`]: the detector's candidates scored against labelled boxes.
 
 pub mod agent;
+pub mod blob_circle;
 pub mod builtin;
 mod bundle;
 pub mod calibrate;
@@ -94,6 +99,7 @@ mod rng;
 pub mod ros_msg;
 #[cfg(test)]
 mod ros_msg_fixtures;
+pub mod seeded_mask;
 pub mod svm;
 mod svm_model;
 #[cfg(test)]

@@ -29,12 +29,28 @@ pub struct LocalView {
     half_side: u32,
     /// For each view pixel, row-major, where it falls in the frame (NaN where nowhere).
     map: Vec<[f32; 2]>,
+    /// Frame pixels per view pixel at the centre: 1 unless the blob was too big for a
+    /// view of full resolution.
+    scale: f64,
 }
 
 impl LocalView {
     /// A view looking at frame pixel `centre_px`, covering about `half_extent_px` frame
-    /// pixels on each side. `None` where the model cannot unproject the centre.
+    /// pixels on each side, at most [`MAX_HALF_SIDE_PX`] view pixels (a bigger extent is
+    /// seen at a coarser scale). `None` where the model cannot unproject the centre.
     pub fn new(model: &CameraModel, centre_px: [f64; 2], half_extent_px: f64) -> Option<Self> {
+        Self::fitting(model, centre_px, half_extent_px, MAX_HALF_SIDE_PX)
+    }
+
+    /// As [`LocalView::new`], with at most `max_half_side_px` view pixels each side of the
+    /// centre: an extent bigger than that is seen through a shorter focal length, so the
+    /// whole blob is in the view ([`LocalView::scale`] says by how much).
+    pub fn fitting(
+        model: &CameraModel,
+        centre_px: [f64; 2],
+        half_extent_px: f64,
+        max_half_side_px: u32,
+    ) -> Option<Self> {
         let axis = Vector3::from(model.unproject(centre_px)?);
         // Keep the view upright: its x axis is the camera's x made perpendicular to the axis.
         let x0 = Vector3::x() - axis * axis.x;
@@ -60,7 +76,11 @@ impl LocalView {
             return None;
         }
         let stretch = sx.max(sy) / sx.min(sy);
-        let half_side = ((half_extent_px * stretch).ceil() as u32).clamp(4, MAX_HALF_SIDE_PX);
+        let max_half = max_half_side_px.clamp(4, MAX_HALF_SIDE_PX);
+        let wanted = half_extent_px * stretch;
+        let scale = (wanted / f64::from(max_half)).max(1.0);
+        let f_px = f_px / scale;
+        let half_side = ((wanted / scale).ceil() as u32).clamp(4, max_half);
         let side = 2 * half_side + 1;
         let mut map = Vec::with_capacity((side * side) as usize);
         let h = f64::from(half_side);
@@ -76,7 +96,13 @@ impl LocalView {
             f_px,
             half_side,
             map,
+            scale,
         })
+    }
+
+    /// Frame pixels per view pixel at the view's centre (1 for a full-resolution view).
+    pub fn scale(&self) -> f64 {
+        self.scale
     }
 
     /// Side of the view, pixels.

@@ -11,10 +11,12 @@
 //! `run_scenario` produces a whole `SimRun`; `World` steps the same world incrementally for
 //! a live caller. [`render`] draws what a MiRo's cameras see through the sim's own fisheye
 //! [`lens`] (placed by the [`head`] chain), with per-frame ball ground truth; [`chessboard`]
-//! renders calibration views with their true corners. [`score`] scores a method's estimates against a run's ground truth;
+//! renders calibration views with their true corners; [`photo_synth`] makes randomised
+//! labelled photos of a ball through a cheap camera ([`camera_effects`]). [`score`] scores a method's estimates against a run's ground truth;
 //! [`truth_log`] carries a run's ground truth through a match log and rebuilds the run.
 //! This crate never depends on `fusion-server`.
 
+pub mod camera_effects;
 pub mod camera_world;
 pub mod chessboard;
 pub mod head;
@@ -23,6 +25,8 @@ mod latency;
 pub mod lens;
 mod noise;
 mod observer;
+pub mod photo_shapes;
+pub mod photo_synth;
 mod physics;
 pub mod render;
 mod render_objects;

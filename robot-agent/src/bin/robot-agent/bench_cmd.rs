@@ -19,6 +19,8 @@ use std::time::Instant;
 
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
+    #[command(flatten)]
+    pub model: crate::defaults::ClassifierArgs,
     /// Simulated matches the frames come from.
     #[arg(long, default_value_t = 3)]
     pub matches: u64,
@@ -120,7 +122,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let agent = match agents.get_mut(id) {
             Some(a) => a,
             None => {
-                let classifier = crate::defaults::classifier(&config.detector)?;
+                let classifier = crate::defaults::classifier(
+                    &config.detector,
+                    args.model.classifier.as_deref(),
+                )?;
                 let a = Agent::new(id, Pitch::default(), config, [left, right], classifier)?;
                 agents.entry(id.clone()).or_insert(a)
             }

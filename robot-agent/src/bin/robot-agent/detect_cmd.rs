@@ -16,6 +16,8 @@ use std::time::{Duration, Instant};
 
 #[derive(Debug, clap::Args)]
 pub struct DetectArgs {
+    #[command(flatten)]
+    pub model: crate::defaults::ClassifierArgs,
     /// Folder of photos (PNG or JPEG; other files are left alone).
     #[arg(long)]
     pub images: PathBuf,
@@ -95,7 +97,10 @@ pub fn run(args: DetectArgs) -> Result<()> {
     let config = crate::run::load_config(args.config.as_deref())?;
     let detection = Detection {
         detector: Detector::new(config.detector).context("the detector settings")?,
-        classifier: crate::defaults::classifier(&config.detector)?,
+        classifier: crate::defaults::classifier(
+            &config.detector,
+            args.model.classifier.as_deref(),
+        )?,
         min_probability: config.validation.min_probability,
     };
     let mut camera = PhotoCamera::new(&args.camera)?;

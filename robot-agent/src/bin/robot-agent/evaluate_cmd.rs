@@ -15,6 +15,8 @@ use std::time::Instant;
 #[derive(Debug, clap::Args)]
 pub struct EvaluateArgs {
     #[command(flatten)]
+    pub model: crate::defaults::ClassifierArgs,
+    #[command(flatten)]
     pub folder: LabelledArgs,
     /// Pipeline settings (TOML: `[detector]`, `[validation]` for `min_probability`).
     #[arg(long)]
@@ -38,7 +40,8 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
     let config = crate::run::load_config(args.config.as_deref())?;
     let folder = LabelledFolder::open(&args.folder)?;
     let detector = Detector::new(config.detector).context("the detector's settings")?;
-    let classifier = crate::defaults::classifier(&config.detector)?;
+    let classifier =
+        crate::defaults::classifier(&config.detector, args.model.classifier.as_deref())?;
     let mut eval = LabelEval::new(config.validation.min_probability);
     let (mut unreadable, mut warnings, mut unlabelled) = (0usize, 0usize, 0usize);
     let mut ms = Vec::new();

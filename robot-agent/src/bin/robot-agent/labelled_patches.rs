@@ -22,6 +22,16 @@ fn clear_of(centre_px: [f64; 2], radius_px: f64, ball: &BallBox) -> bool {
     (centre_px[0] - bx).hypot(centre_px[1] - by) > half + radius_px * std::f64::consts::SQRT_2
 }
 
+/// Whether a proposed circle is the ball of a box: its centre within 30 % of the ball's
+/// radius (at least 1.5 px) of the box's centre and its radius within 30 % of the ball's
+/// (at least 1.2 px).
+fn matches_ball(centre_px: [f64; 2], radius_px: f64, ball: &BallBox) -> bool {
+    let [bx, by] = ball.centre_px();
+    let r = 0.5 * ball.width_px().max(ball.height_px());
+    (centre_px[0] - bx).hypot(centre_px[1] - by) <= (0.3 * r).max(1.5)
+        && (radius_px - r).abs() <= (0.3 * r).max(1.2)
+}
+
 /// Positive and negative patches of a labelled folder, `random_per_image` random
 /// negatives per photo.
 pub fn labelled_patches(
@@ -60,11 +70,17 @@ pub fn labelled_patches(
         for detector in &detectors {
             let proposals = detector.propose(&image, model.as_ref(), &mut NoClock)?;
             for p in &proposals.items {
-                if !clear(p.frame.center_px, p.frame.radius_px) {
-                    continue;
-                }
                 let view = proposals.image(p, &image);
-                if let Ok(patch) = extract(view, p.local.center_px, p.local.radius_px, &cfg) {
+                let Ok(patch) = extract(view, p.local.center_px, p.local.radius_px, &cfg) else {
+                    continue;
+                };
+                // A proposal that matches a ball is a positive as the detector really cuts
+                // it (off centre, a little too big or small); one that only overlaps a
+                // ball is left out.
+                let (c, r) = (p.frame.center_px, p.frame.radius_px);
+                if labels.balls.iter().any(|b| matches_ball(c, r, b)) {
+                    pos.push(patch);
+                } else if clear(c, r) {
                     neg.push(patch);
                 }
             }
@@ -111,5 +127,18 @@ mod tests {
         assert!(!clear_of([20.0, 20.0], 5.0, &ball));
         assert!(!clear_of([40.0, 20.0], 5.0, &ball));
         assert!(clear_of([60.0, 20.0], 5.0, &ball));
+    }
+
+    #[test]
+    fn a_proposal_close_to_the_box_matches_its_ball() {
+        let ball = BallBox {
+            x_min_px: 10.0,
+            y_min_px: 10.0,
+            x_max_px: 30.0,
+            y_max_px: 30.0,
+        };
+        assert!(matches_ball([21.0, 19.5], 11.0, &ball));
+        assert!(!matches_ball([25.0, 20.0], 10.0, &ball));
+        assert!(!matches_ball([20.0, 20.0], 15.0, &ball));
     }
 }

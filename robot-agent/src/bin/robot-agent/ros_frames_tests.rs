@@ -296,7 +296,7 @@ fn a_camera_topic_of_another_type_is_reported() {
 fn found_at(f: &crate::frames_io::StoredFrame) -> Option<[f64; 2]> {
     let models = crate::run::load_models(None, None).unwrap();
     let config = robot_agent::agent::PipelineConfig::default();
-    let classifier = crate::defaults::classifier(&config.detector).unwrap();
+    let classifier = crate::defaults::classifier(&config.detector, None).unwrap();
     let mut agent = robot_agent::agent::Agent::new(
         "miro1",
         proto::Pitch::default(),

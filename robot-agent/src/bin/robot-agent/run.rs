@@ -21,6 +21,8 @@ use tokio::sync::mpsc;
 
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
+    #[command(flatten)]
+    pub model: crate::defaults::ClassifierArgs,
     /// This robot's id (letters, digits, `_` and `-`).
     #[arg(long)]
     pub robot_id: String,
@@ -441,7 +443,8 @@ pub async fn run(args: RunArgs) -> Result<()> {
         args.calibration_right.as_deref(),
     )?;
     let config = load_config(args.config.as_deref())?;
-    let classifier = crate::defaults::classifier(&config.detector)?;
+    let classifier =
+        crate::defaults::classifier(&config.detector, args.model.classifier.as_deref())?;
     let agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;
     let source = open_source(&args)?;
     let stop = Arc::new(AtomicBool::new(false));

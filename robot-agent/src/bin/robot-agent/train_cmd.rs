@@ -19,8 +19,8 @@ pub struct TrainArgs {
     /// Folder of non-ball patches.
     #[arg(long, requires = "positives")]
     pub negatives: Option<PathBuf>,
-    /// Mine labelled candidates from simulated matches instead.
-    #[arg(long, conflicts_with_all = ["positives", "negatives", "images"])]
+    /// Mine labelled candidates from simulated matches (alone, or beside labelled photos).
+    #[arg(long, conflicts_with_all = ["positives", "negatives"])]
     pub from_sim: bool,
     /// Labelled photos instead (`--images DIR --labels DIR`, as `evaluate` takes them):
     /// each ball box is a positive, candidates and random windows away from the balls are
@@ -71,23 +71,32 @@ fn folder_patches(dir: &Path) -> Result<Vec<Patch>> {
 pub fn run(args: TrainArgs) -> Result<()> {
     let started = Instant::now();
     let mut progress = |line: &str| eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64());
-    let (positives, negatives) = match (&args.positives, &args.negatives) {
-        (Some(p), Some(n)) => (folder_patches(p)?, folder_patches(n)?),
-        _ if args.labelled.given() => {
-            let folder = crate::labelled::LabelledFolder::open(&args.labelled)?;
-            crate::labelled_patches::labelled_patches(
-                &folder,
-                args.random_negatives,
-                args.seed,
-                &mut progress,
-            )?
-        }
-        _ if args.from_sim => {
-            let [model, _] = crate::run::load_models(None, None)?;
-            crate::sim_patches::mine(&model, args.matches, args.seconds, args.seed, &mut progress)?
-        }
-        _ => bail!("give --positives and --negatives, --images and --labels, or --from-sim"),
-    };
+    let (mut positives, mut negatives) = (Vec::new(), Vec::new());
+    if let (Some(p), Some(n)) = (&args.positives, &args.negatives) {
+        positives.extend(folder_patches(p)?);
+        negatives.extend(folder_patches(n)?);
+    }
+    if args.labelled.given() {
+        let folder = crate::labelled::LabelledFolder::open(&args.labelled)?;
+        let (p, n) = crate::labelled_patches::labelled_patches(
+            &folder,
+            args.random_negatives,
+            args.seed,
+            &mut progress,
+        )?;
+        positives.extend(p);
+        negatives.extend(n);
+    }
+    if args.from_sim {
+        let [model, _] = crate::run::load_models(None, None)?;
+        let (p, n) =
+            crate::sim_patches::mine(&model, args.matches, args.seconds, args.seed, &mut progress)?;
+        positives.extend(p);
+        negatives.extend(n);
+    }
+    if !(args.positives.is_some() || args.labelled.given() || args.from_sim) {
+        bail!("give --positives and --negatives, --images and --labels, or --from-sim");
+    }
     progress(&format!(
         "{} ball patches, {} others",
         positives.len(),

@@ -1,0 +1,208 @@
+//! A folder of randomised labelled photos ([`sim::photo_synth`]) as a user's own data set
+//! would be laid out: `images/NNNNN.jpg` and YOLO labels `labels/NNNNN.txt` with a
+//! `labels/classes.txt` naming class 0 `ball`, plus a `manifest.json` saying how it was
+//! made. `robot-agent evaluate` and `robot-agent train` read it like any other.
+//!
+//! Backgrounds go round in turn: a procedural carpet, a rendered view of the simulated
+//! pitch (ball removed; fisheye frames of a simulated match) and, when given, a real photo.
+
+use anyhow::{Context, Result, bail};
+use robot_agent::labels::BallBox;
+use robot_agent::yolo::yolo_line;
+use serde::Serialize;
+use sim::camera_world::{CameraWorld, CameraWorldConfig};
+use sim::lens::LensModel;
+use sim::photo_synth::{Background, PhotoProfile, SynthPhoto, synth_photo};
+use sim::render::{CameraRig, render_robot_cameras};
+use sim::render_scene::Frame;
+use std::path::{Path, PathBuf};
+
+/// What to make.
+#[derive(Debug, Clone)]
+pub struct PhotoSetSpec {
+    pub profile: PhotoProfile,
+    pub count: u64,
+    pub seed: u64,
+    /// Real photos to draw balls on (any size), in the rotation beside carpets and renders.
+    pub backgrounds: Vec<PathBuf>,
+    /// Rendered pitch views in the rotation.
+    pub rendered: usize,
+    /// Which kinds of background go round (empty: every kind there is).
+    pub kinds: Vec<BackgroundKind>,
+}
+
+/// A kind of background.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BackgroundKind {
+    /// A procedural carpet.
+    Carpet,
+    /// A rendered view of the simulated pitch.
+    Rendered,
+    /// One of the given photos.
+    Photos,
+}
+
+#[derive(Debug, Serialize)]
+struct Manifest<'a> {
+    made_by: &'static str,
+    profile: &'a str,
+    seed: u64,
+    count: u64,
+    photos_with_a_ball: usize,
+    backgrounds: Vec<String>,
+    rendered_views: usize,
+    kinds: Vec<BackgroundKind>,
+    note: &'static str,
+}
+
+/// Rendered views of the simulated pitch with no ball: `n` frames from a simulated match.
+pub fn rendered_views(n: usize, seed: u64) -> Result<Vec<Frame>> {
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    let cfg = sim::SimConfig {
+        duration_s: Some(20.0),
+        ..sim::SimConfig::default()
+    };
+    let run = sim::run_scenario("match", seed, &cfg)?;
+    let rig = CameraRig::new(LensModel::miro());
+    let world = CameraWorld::new(&run, &rig, CameraWorldConfig::default(), seed);
+    let ids: Vec<String> = run.robots.iter().map(|r| r.id.clone()).collect();
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n {
+        let id = &ids[k % ids.len()];
+        let t = 1.0 + 18.0 * k as f64 / n as f64;
+        let mut scene = world.scene_at(id, t);
+        scene.ball_m = None;
+        let pose = run.robot(id).map(|r| r.pose_at(t)).unwrap_or_default();
+        let [(left, _), (right, _)] =
+            render_robot_cameras(&rig, &scene, pose, world.head_at(id, t), k as u64);
+        out.push(if k % 2 == 0 { left } else { right });
+    }
+    Ok(out)
+}
+
+fn frame_of(image: robot_agent::image::RgbImage) -> Frame {
+    Frame {
+        width: image.width(),
+        height: image.height(),
+        rgb: image.data().to_vec(),
+    }
+}
+
+/// Encodes a photo as JPEG at its quality, or PNG without one; returns the file's extension.
+pub fn encode(photo: &SynthPhoto) -> Result<(Vec<u8>, &'static str)> {
+    let f = &photo.frame;
+    match photo.jpeg_quality {
+        Some(q) => {
+            let mut bytes = Vec::new();
+            let w = u16::try_from(f.width).context("photo too wide for JPEG")?;
+            let h = u16::try_from(f.height).context("photo too tall for JPEG")?;
+            jpeg_encoder::Encoder::new(&mut bytes, q)
+                .encode(&f.rgb, w, h, jpeg_encoder::ColorType::Rgb)
+                .context("encoding JPEG")?;
+            Ok((bytes, "jpg"))
+        }
+        None => {
+            let image = robot_agent::image::RgbImage::new(f.width, f.height, f.rgb.clone())?;
+            Ok((robot_agent::image_io::encode_png(&image)?, "png"))
+        }
+    }
+}
+
+/// Writes the set into `out` (which must not hold an earlier set's files), reporting
+/// progress; returns the number of photos with a ball.
+pub fn write_photo_set(
+    spec: &PhotoSetSpec,
+    out: &Path,
+    progress: &mut dyn FnMut(&str),
+) -> Result<usize> {
+    let (images, labels) = (out.join("images"), out.join("labels"));
+    for dir in [&images, &labels] {
+        if dir.exists() && std::fs::read_dir(dir)?.next().is_some() {
+            bail!("{} is not empty: give a new folder", dir.display());
+        }
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let mut pictures = Vec::new();
+    for p in &spec.backgrounds {
+        let image = robot_agent::image_io::load_rgb(p)
+            .with_context(|| format!("reading background {}", p.display()))?;
+        pictures.push(frame_of(image));
+    }
+    progress(&format!("rendering {} pitch views", spec.rendered));
+    let renders = rendered_views(spec.rendered, spec.seed)?;
+    std::fs::write(labels.join("classes.txt"), "ball\n")?;
+    let available = |k: &BackgroundKind| match k {
+        BackgroundKind::Carpet => true,
+        BackgroundKind::Rendered => !renders.is_empty(),
+        BackgroundKind::Photos => !pictures.is_empty(),
+    };
+    let kinds: Vec<BackgroundKind> = if spec.kinds.is_empty() {
+        [
+            BackgroundKind::Carpet,
+            BackgroundKind::Rendered,
+            BackgroundKind::Photos,
+        ]
+        .into_iter()
+        .filter(available)
+        .collect()
+    } else {
+        if let Some(k) = spec.kinds.iter().find(|k| !available(k)) {
+            bail!("no {k:?} backgrounds: give --backgrounds or --rendered");
+        }
+        spec.kinds.clone()
+    };
+    let mut with_ball = 0;
+    for i in 0..spec.count {
+        let k = (i as usize) / kinds.len();
+        let background = match kinds[(i as usize) % kinds.len()] {
+            BackgroundKind::Carpet => Background::Carpet,
+            BackgroundKind::Rendered => Background::Picture(&renders[k % renders.len()]),
+            BackgroundKind::Photos => Background::Picture(&pictures[k % pictures.len()]),
+        };
+        let photo = synth_photo(&spec.profile, background, spec.seed, i);
+        let (bytes, ext) = encode(&photo)?;
+        let name = format!("{i:05}");
+        std::fs::write(images.join(format!("{name}.{ext}")), bytes)?;
+        let mut text = String::new();
+        for b in &photo.balls {
+            let [x0, y0, x1, y1] = b.box_px;
+            let ball = BallBox {
+                x_min_px: x0,
+                y_min_px: y0,
+                x_max_px: x1,
+                y_max_px: y1,
+            };
+            text.push_str(&yolo_line(0, &ball, photo.frame.width, photo.frame.height));
+            text.push('\n');
+        }
+        std::fs::write(labels.join(format!("{name}.txt")), text)?;
+        with_ball += usize::from(!photo.balls.is_empty());
+        if (i + 1) % 100 == 0 || i + 1 == spec.count {
+            progress(&format!("{}/{} photos written", i + 1, spec.count));
+        }
+    }
+    let manifest = Manifest {
+        made_by: "synth_photos",
+        profile: spec.profile.name,
+        seed: spec.seed,
+        count: spec.count,
+        photos_with_a_ball: with_ball,
+        backgrounds: spec
+            .backgrounds
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect(),
+        rendered_views: spec.rendered,
+        kinds: kinds.clone(),
+        note: "simulated: balls painted by sim::photo_synth; backgrounds are carpets, renders \
+               and the listed photos",
+    };
+    std::fs::write(
+        out.join("manifest.json"),
+        serde_json::to_string_pretty(&manifest)?,
+    )?;
+    Ok(with_ball)
+}
