@@ -46,9 +46,10 @@ pub fn is_roundish(blob: &Component, max_aspect: f64, min_fill: f64) -> bool {
 }
 
 /// The share of points on two rings around a circle (at 1.5 and 2.2 radii, at least 2 and
-/// 3 pixels out) whose colour is the circle's own: the hue within 20° and the saturation
-/// within 0.25 of the mean colour inside 0.6 radii, neither dark nor grey. Points off the
-/// image are left out. A blob that is a fragment of a bigger object (a red toy's orange
+/// 3 pixels out) whose colour is the circle's own (the hue within 20° and the saturation
+/// within 0.25 of the mean colour inside 0.6 radii, neither dark nor grey) or a stronger
+/// colour of the same family (within 40°, more saturated: a highlight on a red toy is a
+/// pale orange disc with red all round). Points off the image are left out. A blob that is a fragment of a bigger object (a red toy's orange
 /// rim, a patch of an orange wall marking) has its colour all round it; a ball has the
 /// floor, a wall or a robot, which differ.
 pub fn ring_share(image: &RgbImage, circle: &Circle) -> f64 {
@@ -87,7 +88,9 @@ pub fn ring_share(image: &RgbImage, circle: &Circle) -> f64 {
                 let (h, s, v) = crate::hsv::rgb_to_hsv(r, g, b);
                 let dh = (h - hue).rem_euclid(360.0);
                 let dh = dh.min(360.0 - dh);
-                same += usize::from(dh <= 20.0 && (s - sat).abs() <= 0.25 && s > 0.25 && v > 0.15);
+                let alike = dh <= 20.0 && (s - sat).abs() <= 0.25 && s > 0.25 && v > 0.15;
+                let stronger = dh <= 40.0 && s >= 0.6 && s > sat && v > 0.3;
+                same += usize::from(alike || stronger);
             }
         }
     }

@@ -98,7 +98,7 @@ impl Default for DetectorConfig {
             adapt_rate: 0.1,
             open_radius_px: 1,
             close_radius_px: 2,
-            min_blob_area_px: 12,
+            min_blob_area_px: 9,
             max_blobs: 6,
             roi_margin_px: 4,
             seeded: true,
@@ -331,19 +331,45 @@ impl Detector {
         };
         let mut blobs = joined_components(&mask, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
         if let Some(seeds) = &seeds {
-            // A ball that the growth joined to a bigger region of pale ball-like colours
-            // (a warm wall, a hand) is searched again around its own seeds.
-            let seed_blobs =
-                joined_components(seeds, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
-            let merged: Vec<Component> = seed_blobs
-                .into_iter()
-                .filter(|s| {
-                    blobs.iter().any(|g| {
-                        contains(&g.bbox, s.centroid_px)
-                            && blob_size_px(g) as f64 > MERGED_SIZE_RATIO * blob_size_px(s) as f64
-                    })
-                })
-                .collect();
+            // A ball that the growth joined to a bigger region of ball-like colours (a warm
+            // wall, a hand, a marking it touches) is searched again around its own seeds.
+            let mut merged = Vec::new();
+            for g in blobs.iter().filter(|g| {
+                blob_size_px(g) > cfg.small_blob_max_px
+                    && !is_roundish(g, FALLBACK_MAX_ASPECT, FALLBACK_MIN_FILL)
+            }) {
+                let b = &g.bbox;
+                let window = crop(
+                    seeds,
+                    b.x_min,
+                    b.y_min,
+                    b.x_max - b.x_min + 1,
+                    b.y_max - b.y_min + 1,
+                )?;
+                let (dx, dy) = (b.x_min, b.y_min);
+                merged.extend(
+                    joined_components(&window, reach_px, cfg.min_blob_area_px, cfg.max_blobs)
+                        .into_iter()
+                        .filter(|s| {
+                            f64::from(blob_size_px(g))
+                                > MERGED_SIZE_RATIO * f64::from(blob_size_px(s))
+                        })
+                        .map(|s| Component {
+                            bbox: BoundingBox {
+                                x_min: s.bbox.x_min + dx,
+                                y_min: s.bbox.y_min + dy,
+                                x_max: s.bbox.x_max + dx,
+                                y_max: s.bbox.y_max + dy,
+                            },
+                            centroid_px: [
+                                s.centroid_px[0] + f64::from(dx),
+                                s.centroid_px[1] + f64::from(dy),
+                            ],
+                            ..s
+                        }),
+                );
+            }
+            merged.truncate(cfg.max_blobs);
             blobs.extend(merged);
         }
         clock.mark("blobs");
@@ -567,14 +593,6 @@ const FALLBACK_MIN_FILL: f64 = 0.55;
 /// A seed blob inside a grown blob this many times its size was merged with something.
 const MERGED_SIZE_RATIO: f64 = 1.6;
 
-/// Whether a box holds a point.
-fn contains(b: &BoundingBox, p: [f64; 2]) -> bool {
-    p[0] >= f64::from(b.x_min)
-        && p[0] <= f64::from(b.x_max)
-        && p[1] >= f64::from(b.y_min)
-        && p[1] <= f64::from(b.y_max)
-}
-
 /// A blob with more of the ball's colours than this share around it is a fragment of
 /// something bigger, not proposed as its own circle.
 const FRAGMENT_RING_SHARE: f64 = 0.4;
@@ -643,3 +661,7 @@ pub fn disc_hsv(image: &RgbImage, circle: &Circle, shrink: f64) -> Vec<(f64, f64
 #[cfg(test)]
 #[path = "detect_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "detect_photo_tests.rs"]
+mod photo_tests;

@@ -287,12 +287,18 @@ impl MaskLut {
         self.table[Self::index(r, g, b)] != 0
     }
 
+    /// The table's cell of a colour.
     #[inline]
-    fn index(r: u8, g: u8, b: u8) -> usize {
+    pub(crate) fn index(r: u8, g: u8, b: u8) -> usize {
         let shift = 8 - LUT_BITS;
         (usize::from(r >> shift) << (2 * LUT_BITS))
             | (usize::from(g >> shift) << LUT_BITS)
             | usize::from(b >> shift)
+    }
+
+    /// The table, one byte (0 or 1) per colour cell, indexed by [`MaskLut::index`].
+    pub(crate) fn cells(&self) -> &[u8] {
+        &self.table
     }
 
     /// The mask of a frame.

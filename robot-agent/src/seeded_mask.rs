@@ -21,16 +21,21 @@ const GROW: u8 = 1;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SeededLut {
     seed: MaskLut,
-    grow: MaskLut,
+    /// Per colour cell: 2 seed, 1 growth only, 0 neither.
+    classes: Vec<u8>,
 }
 
 impl SeededLut {
     /// Seeds from `seed`, growth through `grow` (a seed colour always grows too).
     pub fn new(seed: &HsvThresholds, grow: &HsvThresholds) -> Result<Self, HsvError> {
-        Ok(SeededLut {
-            seed: MaskLut::new(seed)?,
-            grow: MaskLut::new(grow)?,
-        })
+        let (seed, grow) = (MaskLut::new(seed)?, MaskLut::new(grow)?);
+        let classes = seed
+            .cells()
+            .iter()
+            .zip(grow.cells())
+            .map(|(&s, &g)| if s != 0 { SEED } else { g * GROW })
+            .collect();
+        Ok(SeededLut { seed, classes })
     }
 
     /// The strict window's table.
@@ -38,21 +43,10 @@ impl SeededLut {
         &self.seed
     }
 
-    /// The wide window's table.
-    pub fn grow_lut(&self) -> &MaskLut {
-        &self.grow
-    }
-
     /// A pixel's class: 2 seed, 1 growth only, 0 neither.
     #[inline]
     fn class(&self, r: u8, g: u8, b: u8) -> u8 {
-        if self.seed.accepts(r, g, b) {
-            SEED
-        } else if self.grow.accepts(r, g, b) {
-            GROW
-        } else {
-            0
-        }
+        self.classes[MaskLut::index(r, g, b)]
     }
 
     /// The grown mask of a picture: the seeds, and every growth pixel reached from a seed

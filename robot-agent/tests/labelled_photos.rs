@@ -176,4 +176,45 @@ fn evaluate_and_train_on_a_labelled_folder() {
     assert!(stdout.contains("held out"), "{stdout}");
     let m = robot_agent::svm::Model::from_json(&std::fs::read_to_string(&model).unwrap()).unwrap();
     assert_eq!(m.dim(), robot_agent::hog::HOG_LEN);
+
+    // The trained model is used through --classifier, by evaluate and detect alike.
+    let json = p("own-model.json");
+    agent(&[
+        "evaluate",
+        "--images",
+        &p("images"),
+        "--labels",
+        &p("voc"),
+        "--calibration",
+        &p("sim.toml"),
+        "--classifier",
+        &model,
+        "--json",
+        &json,
+    ]);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let recall = report["recall_published"].as_f64().unwrap();
+    assert!(recall >= 0.5, "recall with the trained model {recall}");
+    let lines = agent(&["detect", "--images", &p("images"), "--classifier", &model]);
+    assert_eq!(lines.lines().count(), with_ball + without, "{lines}");
+
+    // A file that is not a model is refused, naming it.
+    std::fs::write(d.join("broken.json"), "{\"not\": \"a model\"}").unwrap();
+    let out = Command::new(BIN)
+        .args([
+            "detect",
+            "--images",
+            &p("images"),
+            "--classifier",
+            &p("broken.json"),
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("broken.json") && stderr.contains("classifier"),
+        "{stderr}"
+    );
 }

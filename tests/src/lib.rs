@@ -6,6 +6,7 @@ pub mod baseline;
 pub mod bench;
 pub mod eval;
 pub mod methods;
+pub mod photo_eval;
 pub mod photo_set;
 pub mod plot;
 pub mod plots;

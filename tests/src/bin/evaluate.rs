@@ -52,6 +52,17 @@ struct Args {
     jobs: usize,
     #[command(flatten)]
     tracks: tracks_cmd::TrackArgs,
+    /// Score the detector on photos instead: randomised held-out photos on carpets, on
+    /// the rendered pitch and on real backgrounds, and real photographs with and without
+    /// balls. Its generated section is marked `<!-- evaluate-photos:begin -->` / `…:end -->`.
+    #[arg(long, conflicts_with = "vision")]
+    photos: bool,
+    /// With `--photos`: randomised photos per kind of background.
+    #[arg(long, default_value_t = 400, requires = "photos")]
+    photo_count: u64,
+    /// With `--photos`: the seed of the randomised photos.
+    #[arg(long, default_value_t = 2, requires = "photos")]
+    photo_seed: u64,
 }
 
 fn main() {
@@ -93,6 +104,9 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     if args.vision {
         return run_vision(&args);
+    }
+    if args.photos {
+        return run_photos(&args);
     }
     let names = scenario_list(&args, sim::scenario_names())?;
     let seeds = args.seeds.unwrap_or(20);
@@ -241,6 +255,62 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     eprintln!(
         "wrote {}",
         vision_report::write_plot(&args.plots, plot, &rep)?
+    );
+    Ok(())
+}
+
+/// `--photos`: the detector on randomised held-out photos and real photographs.
+fn run_photos(args: &Args) -> anyhow::Result<()> {
+    use system_tests::photo_eval::{self, PhotoEvalConfig};
+    let cfg = PhotoEvalConfig {
+        count: args.photo_count,
+        seed: args.photo_seed,
+        backgrounds: "tests/data/backgrounds/heldout".into(),
+        real_balls: "tests/data/real-balls".into(),
+    };
+    let detector = robot_agent::detect::DetectorConfig::default();
+    let classifier = robot_agent::builtin::classifier(&detector)?;
+    let min_probability = robot_agent::pipeline::ValidationConfig::default().min_probability;
+    let started = std::time::Instant::now();
+    let results =
+        photo_eval::evaluate_photos(&cfg, &detector, &classifier, min_probability, &mut |line| {
+            eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64())
+        })?;
+    let text = photo_eval::markdown(&results);
+    println!("{text}");
+    if let Some(path) = &args.json {
+        write_json(path, &results)?;
+    }
+    if let Some(path) = &args.doc {
+        let mut cmd =
+            String::from("cargo run --release -p system-tests --bin evaluate -- --photos");
+        if args.photo_count != 400 {
+            cmd.push_str(&format!(" --photo-count {}", args.photo_count));
+        }
+        if args.photo_seed != 2 {
+            cmd.push_str(&format!(" --photo-seed {}", args.photo_seed));
+        }
+        cmd.push_str(&format!(
+            " --doc {} --plots {}",
+            path.display(),
+            args.plots.display()
+        ));
+        let section = format!(
+            "Produced by `{cmd}` ({} randomised photos per background kind, seed {}; the shipped \
+             detector and classifier, no camera model, `min_probability` {min_probability}).\n\n{text}",
+            args.photo_count, args.photo_seed,
+        );
+        report::rewrite_section_between(
+            path,
+            photo_eval::SECTION_BEGIN,
+            photo_eval::SECTION_END,
+            &section,
+        )?;
+        eprintln!("updated {}", path.display());
+    }
+    eprintln!(
+        "wrote {}",
+        photo_eval::write_plot(&args.plots, "photos_recall_by_width.png", &results)?
     );
     Ok(())
 }
