@@ -88,7 +88,10 @@ fn bad_sources_and_files_give_clear_errors() {
         assert!(!out.status.success());
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
-    assert!(run(&["--source", "camera:0"]).contains("is not sim, images:DIR or mcap:FILE"));
+    assert!(
+        run(&["--source", "camera:0"])
+            .contains("is not sim, images:DIR, mcap:FILE, zenoh:ros2 or zenoh:ros1")
+    );
     let missing = format!("images:{}", dir.path().display());
     assert!(run(&["--source", &missing]).contains("frames.jsonl"));
     let garbage = dir.path().join("garbage.mcap");

@@ -13,6 +13,7 @@ mod evaluate_cmd;
 mod frames_io;
 mod labelled;
 mod labelled_patches;
+mod live_ros;
 mod ros_frames;
 mod run;
 mod sim_patches;

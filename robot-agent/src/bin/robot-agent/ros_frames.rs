@@ -82,7 +82,7 @@ fn parse_pose(s: &str) -> Result<Pose2> {
 const ODOMETRY_SIGMA_XY_M: f64 = 0.05;
 const ODOMETRY_SIGMA_THETA_RAD: f64 = 0.05;
 
-fn default_pose_covariance() -> [f64; 9] {
+pub fn default_pose_covariance() -> [f64; 9] {
     let (xy, th) = (
         ODOMETRY_SIGMA_XY_M * ODOMETRY_SIGMA_XY_M,
         ODOMETRY_SIGMA_THETA_RAD * ODOMETRY_SIGMA_THETA_RAD,
@@ -271,27 +271,41 @@ impl RosTrack {
     /// The robot's state for a frame at `stamp`: the latest joints and pose at or before
     /// it (or else the first ones), the pose placed on the field by the origin.
     pub fn state_at(&self, stamp: Stamp) -> RobotState {
-        let head = latest(&self.joints, stamp).map_or_else(default_head, |(_, h)| h);
-        let (state_stamp, odom) = match latest(&self.poses, stamp) {
-            Some((s, p)) => (Some(s), p),
-            None => (
-                None,
-                OdomPose {
-                    pose: Pose2 {
-                        x_m: 0.0,
-                        y_m: 0.0,
-                        theta_rad: 0.0,
-                    },
-                    covariance: default_pose_covariance(),
+        robot_state(
+            latest(&self.joints, stamp).map(|(_, h)| h),
+            latest(&self.poses, stamp),
+            self.origin,
+        )
+    }
+}
+
+/// The robot's state from its latest head joints and odometry pose (the defaults where
+/// there are none), the odometry placed on the field at `origin`.
+pub fn robot_state(
+    head: Option<HeadJoints>,
+    pose: Option<(Stamp, OdomPose)>,
+    origin: Pose2,
+) -> RobotState {
+    let head = head.unwrap_or_else(default_head);
+    let (state_stamp, odom) = match pose {
+        Some((s, p)) => (Some(s), p),
+        None => (
+            None,
+            OdomPose {
+                pose: Pose2 {
+                    x_m: 0.0,
+                    y_m: 0.0,
+                    theta_rad: 0.0,
                 },
-            ),
-        };
-        RobotState {
-            state_stamp,
-            pose: on_field(self.origin, odom.pose),
-            pose_covariance: rotate_covariance(self.origin.theta_rad, odom.covariance),
-            head,
-        }
+                covariance: default_pose_covariance(),
+            },
+        ),
+    };
+    RobotState {
+        state_stamp,
+        pose: on_field(origin, odom.pose),
+        pose_covariance: rotate_covariance(origin.theta_rad, odom.covariance),
+        head,
     }
 }
 

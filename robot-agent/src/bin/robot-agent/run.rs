@@ -27,10 +27,15 @@ pub struct RunArgs {
     #[arg(long)]
     pub robot_id: String,
     /// `sim` (the simulator's rendered cameras), `images:DIR` (a folder with a frames.jsonl
-    /// index) or `mcap:FILE` (a recording of camera images and robot states, or a MiRo's
-    /// ROS 2 bag or converted ROS 1 bag).
+    /// index), `mcap:FILE` (a recording of camera images and robot states, or a MiRo's
+    /// ROS 2 bag or converted ROS 1 bag), or `zenoh:ros2` / `zenoh:ros1` (a running MiRo's
+    /// ROS topics as a Zenoh ROS bridge publishes them).
     #[arg(long, default_value = "sim")]
     pub source: SourceSpec,
+    /// With `--source zenoh:…`: the Zenoh key prefix the bridge puts before the topic
+    /// names (none by default).
+    #[arg(long, default_value = "")]
+    pub ros_key_prefix: String,
     /// Camera calibration from `robot-agent calibrate`: the left camera's, and the right
     /// one's too unless `--calibration-right` is given. Default: the simulated MiRo's.
     #[arg(long)]
@@ -115,7 +120,7 @@ struct Summary {
     total_ms: Vec<f64>,
 }
 
-fn wall_now() -> Stamp {
+pub fn wall_now() -> Stamp {
     let d = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .unwrap_or_default();
@@ -378,8 +383,25 @@ fn on_image(p: [f64; 2], image: &robot_agent::image::RgbImage) -> bool {
         && (0.0..f64::from(image.height())).contains(&p[1])
 }
 
-fn open_source(args: &RunArgs) -> Result<Box<dyn FrameSource>> {
+async fn open_source(
+    args: &RunArgs,
+    session: Option<&zenoh::Session>,
+    stop: &Arc<AtomicBool>,
+) -> Result<Box<dyn FrameSource>> {
     Ok(match &args.source {
+        SourceSpec::Zenoh(encoding) => {
+            let session = session.context("a live source needs the Zenoh session")?;
+            Box::new(
+                crate::live_ros::LiveRosSource::open(
+                    session,
+                    &args.ros,
+                    *encoding,
+                    &args.ros_key_prefix,
+                    stop.clone(),
+                )
+                .await?,
+            )
+        }
         SourceSpec::Sim => Box::new(crate::sim_source::SimSource::new(
             &args.robot_id,
             &args.sim,
@@ -446,8 +468,20 @@ pub async fn run(args: RunArgs) -> Result<()> {
     let classifier =
         crate::defaults::classifier(&config.detector, args.model.classifier.as_deref())?;
     let agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;
-    let source = open_source(&args)?;
     let stop = Arc::new(AtomicBool::new(false));
+    let net = NetConfig {
+        mode: args.mode.clone(),
+        listen: args.listen.clone(),
+        connect: args.connect.clone(),
+        ..NetConfig::default()
+    };
+    // A live source needs the session even offline (to subscribe, not to publish).
+    let session = if !args.offline || matches!(args.source, SourceSpec::Zenoh(_)) {
+        Some(net.open().await.context("opening the Zenoh session")?)
+    } else {
+        None
+    };
+    let source = open_source(&args, session.as_ref(), &stop).await?;
     {
         let stop = stop.clone();
         tokio::spawn(async move {
@@ -467,14 +501,8 @@ pub async fn run(args: RunArgs) -> Result<()> {
         print_summary(&id, &summary);
         return Ok(());
     }
-    let net = NetConfig {
-        mode: args.mode.clone(),
-        listen: args.listen.clone(),
-        connect: args.connect.clone(),
-        ..NetConfig::default()
-    };
     let keys = KeySpace::new(&args.prefix)?;
-    let session = net.open().await.context("opening the Zenoh session")?;
+    let session = session.context("no Zenoh session")?;
     let token = session
         .liveliness()
         .declare_token(keys.robot_liveliness(&id)?)

@@ -1,5 +1,5 @@
-//! Where camera frames come from: the simulator's rendered cameras, an image folder, or an
-//! MCAP recording.
+//! Where camera frames come from: the simulator's rendered cameras, an image folder, an
+//! MCAP recording, or a running robot's ROS topics over Zenoh ([`crate::live_ros`]).
 
 use crate::frames_io::{
     FrameRecord, McapFrames, StoredFrame, load_image, read_index, read_mcap, state_at,
@@ -30,6 +30,8 @@ pub enum SourceSpec {
     Sim,
     Images(PathBuf),
     Mcap(PathBuf),
+    /// A running robot's ROS topics over Zenoh, in this encoding.
+    Zenoh(robot_agent::ros_msg::Encoding),
 }
 
 impl std::str::FromStr for SourceSpec {
@@ -40,7 +42,11 @@ impl std::str::FromStr for SourceSpec {
             None if s == "sim" => Ok(SourceSpec::Sim),
             Some(("images", dir)) if !dir.is_empty() => Ok(SourceSpec::Images(dir.into())),
             Some(("mcap", file)) if !file.is_empty() => Ok(SourceSpec::Mcap(file.into())),
-            _ => bail!("source {s:?} is not sim, images:DIR or mcap:FILE"),
+            Some(("zenoh", "ros2" | "cdr")) => {
+                Ok(SourceSpec::Zenoh(robot_agent::ros_msg::Encoding::Cdr))
+            }
+            Some(("zenoh", "ros1")) => Ok(SourceSpec::Zenoh(robot_agent::ros_msg::Encoding::Ros1)),
+            _ => bail!("source {s:?} is not sim, images:DIR, mcap:FILE, zenoh:ros2 or zenoh:ros1"),
         }
     }
 }
