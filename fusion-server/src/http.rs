@@ -1,5 +1,5 @@
 //! The HTTP face of the server: the JSON API, the live WebSocket stream, health, metrics and
-//! the coach's page (embedded at build time).
+//! the coach's page (embedded at build time), and the replay's control endpoints.
 
 use crate::live::Live;
 use crate::query::{self, BallQuery, QueryError};
@@ -7,7 +7,7 @@ use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Query, State};
 use axum::http::{StatusCode, Uri, header};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::{Json, Router};
 use std::sync::Arc;
 use std::sync::atomic::Ordering::Relaxed;
@@ -35,6 +35,8 @@ pub fn app(live: Arc<Live>) -> Router {
         .route("/api/predict", get(predict))
         .route("/api/intercept", get(intercept))
         .route("/api/stream", get(stream))
+        .route("/api/replay", get(control::status))
+        .route("/api/replay/{action}", post(control::steer))
         .route("/healthz", get(health))
         .route("/metrics", get(metrics))
         .fallback(get(web))
@@ -156,6 +158,8 @@ async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     }
     live.stats.ws_clients.fetch_sub(1, Relaxed);
 }
+
+mod control;
 
 #[cfg(test)]
 mod tests;
