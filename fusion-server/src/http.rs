@@ -13,17 +13,34 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering::Relaxed;
 use tokio::sync::broadcast::error::RecvError;
 
-/// The coach's page and its assets: (path, content type, bytes).
+const HTML: &str = "text/html; charset=utf-8";
+const JS: &str = "text/javascript; charset=utf-8";
+
+/// The coach's page and its assets: (path, content type, bytes). Plain files, no build
+/// step; embedded so the page works offline from the binary alone.
 const WEB: &[(&str, &str, &[u8])] = &[
+    ("/", HTML, include_bytes!("../../web/index.html")),
+    ("/index.html", HTML, include_bytes!("../../web/index.html")),
+    ("/app.js", JS, include_bytes!("../../web/app.js")),
+    ("/pitch.js", JS, include_bytes!("../../web/pitch.js")),
+    ("/panel.js", JS, include_bytes!("../../web/panel.js")),
+    ("/replay.js", JS, include_bytes!("../../web/replay.js")),
+    ("/chart.js", JS, include_bytes!("../../web/chart.js")),
     (
-        "/",
-        "text/html; charset=utf-8",
-        include_bytes!("../../web/index.html"),
+        "/page.css",
+        "text/css; charset=utf-8",
+        include_bytes!("../../web/page.css"),
     ),
     (
-        "/index.html",
-        "text/html; charset=utf-8",
-        include_bytes!("../../web/index.html"),
+        "/favicon.svg",
+        "image/svg+xml",
+        include_bytes!("../../web/favicon.svg"),
+    ),
+    // Browsers ask for it by this name when a page names none.
+    (
+        "/favicon.ico",
+        "image/svg+xml",
+        include_bytes!("../../web/favicon.svg"),
     ),
 ];
 
