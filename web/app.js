@@ -93,7 +93,11 @@ function onFrame(view) {
     const c = b.covariance;
     const mid = (c[0] + c[5]) / 2;
     const major_cm = 200 * Math.sqrt(Math.max(0, mid + Math.hypot((c[0] - c[5]) / 2, c[1])));
-    model.history.push({ t_s, speed: Math.hypot(b.velocity_mps[0], b.velocity_mps[1]), ellipse_cm: major_cm });
+    // Only when time moved on: a paused replay repeats one state.
+    const lastH = model.history[model.history.length - 1];
+    if (!lastH || lastH.t_s !== t_s) {
+      model.history.push({ t_s, speed: Math.hypot(b.velocity_mps[0], b.velocity_mps[1]), ellipse_cm: major_cm });
+    }
   }
   while (model.trail.length && t_s - model.trail[0].t_s > TRAIL_S) model.trail.shift();
   while (model.history.length && t_s - model.history[0].t_s > HISTORY_S) model.history.shift();

@@ -103,6 +103,19 @@ async function liveChecks(browser) {
   check(reporting.length > 0 && reporting.every((id) => seen.has(id)),
     `observation ellipses for every reporting robot (${reporting.join(", ")}; drawn for ${[...seen].sort().join(", ")})`);
 
+  // The panel: a row per robot with its rate, trust, latency and outliers; rejections by reason.
+  await until("the panel's robots and rejections", async () => {
+    const [rows, reasons, apiNow] = await Promise.all([
+      page.$$eval("#robots tr", (trs) => trs.map((tr) => [...tr.children].map((td) => td.textContent))),
+      page.$$eval("#rejected li[data-reason]", (lis) => lis.map((li) => li.dataset.reason)),
+      getJson(url, "/api/state"),
+    ]);
+    const same = JSON.stringify(reasons.sort()) === JSON.stringify(Object.keys(apiNow.rejected).sort());
+    return rows.length === ROBOTS && rows.every((r) => r.length === 6 && /ms$/.test(r[4])) && same;
+  }, 5000)
+    .then(() => check(true, "panel: every robot with rate, trust, latency and outliers; the rejections by reason as the server counts them"))
+    .catch(() => fail("the panel's robot table or rejection list does not match the server"));
+
   // The frame rate with ten robots, measured in the browser over 5 s.
   const fps = await page.evaluate(() => new Promise((resolve) => {
     let n = 0;
