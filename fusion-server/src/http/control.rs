@@ -71,6 +71,19 @@ fn origin_host(origin: &str) -> &str {
     origin.split_once("://").map_or(origin, |(_, h)| h)
 }
 
+/// Whether `Host` (`name:port`, `[v6]:port`) names this machine by a loopback address.
+fn loopback_host(host: &str) -> bool {
+    let name = match host.rsplit_once(':') {
+        Some((name, port)) if port.chars().all(|c| c.is_ascii_digit()) => name,
+        _ => host,
+    };
+    let name = name.trim_start_matches('[').trim_end_matches(']');
+    name.eq_ignore_ascii_case("localhost")
+        || name
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
+}
+
 /// Whether this request may steer the replay; the refusal otherwise.
 fn allowed(
     access: &ControlAccess,
@@ -98,7 +111,16 @@ fn allowed(
             }
         }
         ControlAccess::LoopbackOnly => match peer {
-            Some(p) if p.ip().is_loopback() => Ok(()),
+            // A page whose own name was pointed at this machine (DNS rebinding) comes from
+            // loopback too, but not with a loopback name in `Host`.
+            Some(p) if p.ip().is_loopback() && text(header::HOST).is_some_and(loopback_host) => {
+                Ok(())
+            }
+            Some(p) if p.ip().is_loopback() => Err(refuse(
+                StatusCode::FORBIDDEN,
+                "control from this machine must address the server as localhost or by a \
+                 loopback address",
+            )),
             _ => Err(refuse(
                 StatusCode::FORBIDDEN,
                 format!(

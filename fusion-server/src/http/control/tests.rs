@@ -321,11 +321,33 @@ async fn a_control_token_is_required_when_set() {
 
 #[test]
 fn without_a_token_only_this_machine_may_steer() {
-    let headers = HeaderMap::new();
+    let mut headers = HeaderMap::new();
+    headers.insert(
+        header::HOST,
+        header::HeaderValue::from_static("127.0.0.1:8080"),
+    );
     let access = ControlAccess::LoopbackOnly;
     let local: SocketAddr = "127.0.0.1:5000".parse().expect("address");
     let remote: SocketAddr = "192.0.2.7:5000".parse().expect("address");
     assert!(allowed(&access, &headers, Some(local)).is_ok());
+    // A site's own name pointed at this machine (DNS rebinding) is refused.
+    let mut rebound = HeaderMap::new();
+    rebound.insert(
+        header::HOST,
+        header::HeaderValue::from_static("evil.example:8080"),
+    );
+    assert!(allowed(&access, &rebound, Some(local)).is_err());
+    for host in ["localhost:8080", "[::1]:8080", "127.0.0.1", "LOCALHOST"] {
+        assert!(loopback_host(host), "{host}");
+    }
+    for host in [
+        "evil.example",
+        "192.0.2.7:80",
+        "localhost.evil.example:80",
+        "[::2]:80",
+    ] {
+        assert!(!loopback_host(host), "{host}");
+    }
     let refused = allowed(&access, &headers, Some(remote)).expect_err("refused");
     assert_eq!(refused.status, StatusCode::FORBIDDEN);
     assert!(allowed(&access, &headers, None).is_err());
@@ -338,6 +360,7 @@ fn without_a_token_only_this_machine_may_steer() {
     );
     assert!(allowed(&token, &with, Some(remote)).is_ok());
     assert!(allowed(&token, &headers, Some(local)).is_err());
+    assert!(allowed(&token, &HeaderMap::new(), Some(local)).is_err());
 }
 
 #[tokio::test(flavor = "multi_thread")]
