@@ -75,6 +75,11 @@ export async function replayChecks(browser, workDir, shots) {
     }, 10_000).catch(() => null);
     check(back, `seek back to 5 s: the page is at ${back ? back.t_s.toFixed(2) : "?"} s`);
     await page.screenshot({ path: `${shots}/replay.png` });
+    await page.setViewportSize({ width: 390, height: 844 });
+    await sleep(400);
+    const bar = await page.locator("#replay").boundingBox();
+    check(bar.width <= 390 && await page.isVisible("#replay-seek"), "phone size: the replay bar fits the screen");
+    await page.screenshot({ path: `${shots}/replay-phone.png`, fullPage: true });
     check(errors.length === 0, `no console errors on the replay page${errors.length ? `: ${errors.join("; ")}` : ""}`);
   } finally {
     await page.close();
