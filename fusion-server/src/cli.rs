@@ -77,6 +77,10 @@ pub struct ReplayArgs {
     /// Playback speed for --realtime (2 = twice as fast).
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
+    /// With --realtime: at the end of the log, stand there paused and keep serving (the
+    /// coach's page can seek back) until Ctrl-C.
+    #[arg(long)]
+    pub stay: bool,
     /// Print the replay summary as JSON.
     #[arg(long)]
     pub json: bool,
@@ -147,6 +151,10 @@ pub struct ServeArgs {
     /// Start a new log file after this many minutes.
     #[arg(long)]
     pub record_max_min: Option<f64>,
+    /// Token the control endpoints (replay's pause, play, seek, speed) require as
+    /// `Authorization: Bearer TOKEN`; without it only this machine may use them.
+    #[arg(long, value_name = "TOKEN")]
+    pub control_token: Option<String>,
     #[command(flatten)]
     pub pitch: PitchFlags,
 }
@@ -231,6 +239,13 @@ pub fn serve_config(a: &ServeArgs) -> Result<(ServeConfig, Option<RecorderConfig
         cfg.state_rate_hz = r;
     }
     cfg.publish_on_update |= a.on_update;
+    if let Some(t) = &a.control_token {
+        anyhow::ensure!(
+            t.len() >= 8 && t.chars().all(|c| c.is_ascii_graphic()),
+            "--control-token must be at least 8 visible ASCII characters"
+        );
+        cfg.control_token = Some(t.clone());
+    }
     if !a.roster.is_empty() {
         cfg.engine.roster = Some(a.roster.iter().cloned().collect());
     }

@@ -12,6 +12,9 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use thiserror::Error;
 
+mod recent;
+pub use recent::{RECENT_OBS_MAX, RecentObs, RecentObservations};
+
 /// Why an inbound message was not used.
 #[derive(Debug, Error)]
 pub enum Rejection {
@@ -107,7 +110,12 @@ struct RobotEntry {
     accepted: u64,
     rejected: u64,
     rate: Rate,
+    /// Arrival minus capture of its accepted observations, exponentially averaged.
+    latency_s: Option<f64>,
 }
+
+/// Weight of the newest observation in a robot's average latency.
+const LATENCY_WEIGHT: f64 = 0.1;
 
 /// One robot as the server sees it, for the HTTP API and the live stream.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -125,6 +133,9 @@ pub struct RobotView {
     pub covariance_scale: Option<f64>,
     /// Share of its observations that the other robots did not confirm.
     pub outlier_rate: Option<f64>,
+    /// Seconds from capture to arrival of its accepted observations, averaged over about
+    /// the last ten (`null` until one arrives).
+    pub latency_s: Option<f64>,
     /// Pose from its latest status, else from its latest observation.
     pub pose: Option<Pose2>,
     pub status: Option<RobotStatus>,
@@ -146,6 +157,7 @@ pub struct Engine {
     fusion: Fusion,
     robots: BTreeMap<String, RobotEntry>,
     counters: EngineCounters,
+    recent: RecentObservations,
 }
 
 impl Engine {
@@ -155,6 +167,7 @@ impl Engine {
             cfg,
             robots: BTreeMap::new(),
             counters: EngineCounters::default(),
+            recent: RecentObservations::default(),
         }
     }
 
@@ -239,6 +252,7 @@ impl Engine {
             .check_robot(key_robot, &obs.robot_id)
             .and_then(|()| Ok(obs.validate(&self.context(received))?));
         if let Err(e) = checked {
+            self.recent.push(&obs, received, Some(e.reason()));
             return Err(self.reject("observation", Some(&obs.robot_id), e));
         }
         let outcome = self.fusion.ingest(&obs, received);
@@ -250,6 +264,7 @@ impl Engine {
             Ingest::Applied | Ingest::Reordered { .. } => None,
         };
         if let Some(r) = refused {
+            self.recent.push(&obs, received, Some(r));
             return Err(self.reject("observation", Some(&obs.robot_id), Rejection::Core(r)));
         }
         self.counters.observations_accepted += 1;
@@ -257,6 +272,12 @@ impl Engine {
         entry.accepted += 1;
         entry.last_obs_received = Some(received);
         entry.rate.hit(received);
+        let latency_s = received.secs_since(obs.stamp);
+        entry.latency_s = Some(match entry.latency_s {
+            Some(l) => l + LATENCY_WEIGHT * (latency_s - l),
+            None => latency_s,
+        });
+        self.recent.push(&obs, received, None);
         Ok((obs, outcome))
     }
 
@@ -334,10 +355,35 @@ impl Engine {
                     observations_rejected: r.rejected,
                     covariance_scale: t.map(|t| t.covariance_scale),
                     outlier_rate: t.map(|t| t.outlier_rate),
+                    latency_s: r.latency_s,
                     pose: self.robot_pose(id),
                     status: r.status.clone(),
                 }
             })
+            .collect()
+    }
+
+    /// The observations received in the `window_s` seconds up to `now`, accepted or
+    /// rejected (with the reason), oldest first.
+    pub fn recent_observations(&self, now: Stamp, window_s: f64) -> Vec<RecentObs> {
+        self.recent.within(now, window_s)
+    }
+
+    /// Rejected inputs so far, by `kind/reason` (as the metrics label them).
+    pub fn rejected_by_reason(&self) -> BTreeMap<String, u64> {
+        self.counters
+            .rejected
+            .iter()
+            .map(|((kind, reason), n)| (format!("{kind}/{reason}"), *n))
+            .collect()
+    }
+
+    /// Robots whose liveliness token is present.
+    pub fn online_robots(&self) -> Vec<String> {
+        self.robots
+            .iter()
+            .filter(|(_, r)| r.online)
+            .map(|(id, _)| id.clone())
             .collect()
     }
 

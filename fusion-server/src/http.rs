@@ -1,5 +1,5 @@
 //! The HTTP face of the server: the JSON API, the live WebSocket stream, health, metrics and
-//! the coach's page (embedded at build time).
+//! the coach's page (embedded at build time), and the replay's control endpoints.
 
 use crate::live::Live;
 use crate::query::{self, BallQuery, QueryError};
@@ -7,23 +7,40 @@ use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Query, State};
 use axum::http::{StatusCode, Uri, header};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::{Json, Router};
 use std::sync::Arc;
 use std::sync::atomic::Ordering::Relaxed;
 use tokio::sync::broadcast::error::RecvError;
 
-/// The coach's page and its assets: (path, content type, bytes).
+const HTML: &str = "text/html; charset=utf-8";
+const JS: &str = "text/javascript; charset=utf-8";
+
+/// The coach's page and its assets: (path, content type, bytes). Plain files, no build
+/// step; embedded so the page works offline from the binary alone.
 const WEB: &[(&str, &str, &[u8])] = &[
+    ("/", HTML, include_bytes!("../../web/index.html")),
+    ("/index.html", HTML, include_bytes!("../../web/index.html")),
+    ("/app.js", JS, include_bytes!("../../web/app.js")),
+    ("/pitch.js", JS, include_bytes!("../../web/pitch.js")),
+    ("/panel.js", JS, include_bytes!("../../web/panel.js")),
+    ("/replay.js", JS, include_bytes!("../../web/replay.js")),
+    ("/chart.js", JS, include_bytes!("../../web/chart.js")),
     (
-        "/",
-        "text/html; charset=utf-8",
-        include_bytes!("../../web/index.html"),
+        "/page.css",
+        "text/css; charset=utf-8",
+        include_bytes!("../../web/page.css"),
     ),
     (
-        "/index.html",
-        "text/html; charset=utf-8",
-        include_bytes!("../../web/index.html"),
+        "/favicon.svg",
+        "image/svg+xml",
+        include_bytes!("../../web/favicon.svg"),
+    ),
+    // Browsers ask for it by this name when a page names none.
+    (
+        "/favicon.ico",
+        "image/svg+xml",
+        include_bytes!("../../web/favicon.svg"),
     ),
 ];
 
@@ -35,6 +52,8 @@ pub fn app(live: Arc<Live>) -> Router {
         .route("/api/predict", get(predict))
         .route("/api/intercept", get(intercept))
         .route("/api/stream", get(stream))
+        .route("/api/replay", get(control::status))
+        .route("/api/replay/{action}", post(control::steer))
         .route("/healthz", get(health))
         .route("/metrics", get(metrics))
         .fallback(get(web))
@@ -156,6 +175,8 @@ async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     }
     live.stats.ws_clients.fetch_sub(1, Relaxed);
 }
+
+mod control;
 
 #[cfg(test)]
 mod tests;

@@ -8,7 +8,8 @@
 //! I/O shell serves it: [`serve`] (Zenoh and HTTP, through [`live`] and [`http`]),
 //! [`net`] (Zenoh session settings), [`metrics`] and [`query`]; [`record`] writes match
 //! logs (MCAP files Foxglove opens) and [`mcap_read`] reads them back for replay,
-//! including logs cut short by a crash.
+//! including logs cut short by a crash; [`replay`] re-fuses them offline and
+//! [`replay_live`] plays them as if live, under the control of the coach's page.
 
 pub mod config;
 pub mod core;
@@ -22,6 +23,7 @@ pub mod net;
 pub mod query;
 pub mod record;
 pub mod replay;
+pub mod replay_live;
 pub mod scoring;
 pub mod serve;
 pub mod simrobots;

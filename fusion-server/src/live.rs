@@ -2,11 +2,13 @@
 //! live stream and the match log. Zenoh callbacks, the publisher task and HTTP handlers all
 //! go through here; nothing in it blocks on the network.
 
-use crate::engine::{Engine, RobotView};
+use crate::engine::{Engine, RecentObs, RobotView};
 use crate::metrics::ShellStats;
 use crate::query::{BallQuery, QueryError, QueryReply};
+use crate::replay_live::{ReplayControl, ReplayStatus};
 use proto::{BallState, KeySpace, Pitch, Stamp};
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::fmt::Debug;
 use std::sync::atomic::Ordering::Relaxed;
 use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
@@ -14,7 +16,8 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use tokio::sync::broadcast;
 
 /// Where the shell reads time. Live: the system clock. Replay: a clock running through a
-/// recorded match, possibly faster than real time.
+/// recorded match, possibly faster than real time, paused or moved
+/// ([`crate::replay_live::ReplayClock`]).
 pub trait Clock: Send + Sync + Debug {
     fn now(&self) -> Stamp;
 }
@@ -29,37 +32,6 @@ impl Clock for SystemClock {
             .map(|d| d.as_nanos())
             .unwrap_or(0);
         Stamp(u64::try_from(ns).unwrap_or(u64::MAX))
-    }
-}
-
-/// Recorded time, advancing `speed` times as fast as the wall clock from `origin`.
-#[derive(Debug, Clone, Copy)]
-pub struct ScaledClock {
-    wall_origin: Instant,
-    origin: Stamp,
-    speed: f64,
-}
-
-impl ScaledClock {
-    pub fn new(origin: Stamp, speed: f64) -> Self {
-        ScaledClock {
-            wall_origin: Instant::now(),
-            origin,
-            speed,
-        }
-    }
-
-    /// The wall-clock instant at which this clock reads `at`.
-    pub fn instant_of(&self, at: Stamp) -> Instant {
-        let dt_s = (at.secs_since(self.origin) / self.speed).max(0.0);
-        self.wall_origin + Duration::from_secs_f64(dt_s)
-    }
-}
-
-impl Clock for ScaledClock {
-    fn now(&self) -> Stamp {
-        self.origin
-            .offset_secs(self.wall_origin.elapsed().as_secs_f64() * self.speed)
     }
 }
 
@@ -86,6 +58,26 @@ pub struct StateView<'a> {
     pub ball: Option<BallState>,
     pub robots: Vec<RobotView>,
     pub pitch: &'a Pitch,
+    /// Observations received in the last [`RECENT_WINDOW_S`] seconds, accepted or
+    /// rejected with the reason, oldest first.
+    pub observations: Vec<RecentObs>,
+    /// Rejected inputs so far, by `kind/reason`.
+    pub rejected: BTreeMap<String, u64>,
+    /// Where the replay stands, when the server replays a match log.
+    pub replay: Option<ReplayStatus>,
+}
+
+/// How far back the view's observations go.
+pub const RECENT_WINDOW_S: f64 = 2.0;
+
+/// Who may use the control endpoints (`POST /api/replay/…`).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum ControlAccess {
+    /// Requests from this machine only (loopback addresses).
+    #[default]
+    LoopbackOnly,
+    /// Requests with `Authorization: Bearer TOKEN`, from anywhere.
+    Token(String),
 }
 
 #[derive(Debug)]
@@ -115,6 +107,9 @@ pub struct Live {
     pub publish_on_update: bool,
     log: Option<Arc<dyn MatchLog>>,
     last_reject_log: Mutex<Option<Instant>>,
+    /// The replay's control, when the server replays a match log.
+    replay: OnceLock<Arc<ReplayControl>>,
+    control_access: OnceLock<ControlAccess>,
 }
 
 impl Live {
@@ -141,6 +136,56 @@ impl Live {
             publish_on_update,
             log,
             last_reject_log: Mutex::new(None),
+            replay: OnceLock::new(),
+            control_access: OnceLock::new(),
+        }
+    }
+
+    /// Hands the replay's control over (once): the control endpoints and the stream's
+    /// `replay` field come alive.
+    pub fn set_replay(&self, control: Arc<ReplayControl>) {
+        if self.replay.set(control).is_err() {
+            tracing::warn!("the replay control was already set");
+        }
+    }
+
+    pub fn replay(&self) -> Option<&Arc<ReplayControl>> {
+        self.replay.get()
+    }
+
+    /// Sets who may use the control endpoints (once; loopback only unless set).
+    pub fn set_control_access(&self, access: ControlAccess) {
+        if self.control_access.set(access).is_err() {
+            tracing::warn!("the control access was already set");
+        }
+    }
+
+    pub fn control_access(&self) -> &ControlAccess {
+        static DEFAULT: ControlAccess = ControlAccess::LoopbackOnly;
+        self.control_access.get().unwrap_or(&DEFAULT)
+    }
+
+    /// Replaces the engine (a replay moved in time), keeping which robots are online: that
+    /// follows their liveliness tokens, not the log.
+    pub fn replace_engine(&self, mut engine: Engine) {
+        let now = self.clock.now();
+        let mut inner = self.lock();
+        for id in inner.engine.online_robots() {
+            engine.liveliness(&id, true, now).ok();
+        }
+        inner.engine = engine;
+        inner.unpublished.clear();
+    }
+
+    fn view<'a>(&self, inner: &'a Inner, now: Stamp, ball: Option<BallState>) -> StateView<'a> {
+        StateView {
+            stamp: now,
+            ball,
+            robots: inner.engine.robots(now),
+            pitch: inner.engine.pitch(),
+            observations: inner.engine.recent_observations(now, RECENT_WINDOW_S),
+            rejected: inner.engine.rejected_by_reason(),
+            replay: self.replay.get().map(|r| r.status()),
         }
     }
 
@@ -169,6 +214,7 @@ impl Live {
 
     /// An observation payload arrived on `key`.
     pub fn on_observation(&self, key: &str, payload: &[u8]) {
+        self.stats.inputs_received.fetch_add(1, Relaxed);
         let robot = self.keys.robot_id_of(key);
         let mut inner = self.lock();
         let now = self.clock.now();
@@ -194,6 +240,7 @@ impl Live {
 
     /// A status payload arrived on `key`.
     pub fn on_status(&self, key: &str, payload: &[u8]) {
+        self.stats.inputs_received.fetch_add(1, Relaxed);
         let robot = self.keys.robot_id_of(key);
         let mut inner = self.lock();
         let now = self.clock.now();
@@ -236,12 +283,7 @@ impl Live {
         }
         let arrivals = std::mem::take(&mut inner.unpublished);
         let frame = (frame && self.stream.receiver_count() > 0).then(|| {
-            let view = StateView {
-                stamp: now,
-                ball: Some(state),
-                robots: inner.engine.robots(now),
-                pitch: inner.engine.pitch(),
-            };
+            let view = self.view(&inner, now, Some(state));
             Arc::<str>::from(serde_json::to_string(&view).unwrap_or_default())
         });
         drop(inner);
@@ -263,15 +305,22 @@ impl Live {
     /// browsers get the regular ticks, not every update), from the calling thread.
     pub fn publish_now(&self, stream: bool) {
         use zenoh::Wait;
-        if let Some((payload, frame)) = self.take_state(stream) {
-            if let Some(p) = self.publisher.get()
-                && let Err(e) = p.put(payload).wait()
-            {
-                tracing::warn!("publishing the ball state failed: {e}");
+        match self.take_state(stream) {
+            Some((payload, frame)) => {
+                if let Some(p) = self.publisher.get()
+                    && let Err(e) = p.put(payload).wait()
+                {
+                    tracing::warn!("publishing the ball state failed: {e}");
+                }
+                if let Some(f) = frame {
+                    self.broadcast(f);
+                }
             }
-            if let Some(f) = frame {
-                self.broadcast(f);
+            // No ball yet: nothing for Zenoh, but watchers still see the robots come and go.
+            None if stream && self.stream.receiver_count() > 0 => {
+                self.broadcast(Arc::from(self.view_json()));
             }
+            None => {}
         }
     }
 
@@ -285,12 +334,7 @@ impl Live {
     pub fn view_json(&self) -> String {
         let inner = self.lock();
         let now = self.clock.now();
-        let view = StateView {
-            stamp: now,
-            ball: inner.engine.ball_state(now),
-            robots: inner.engine.robots(now),
-            pitch: inner.engine.pitch(),
-        };
+        let view = self.view(&inner, now, inner.engine.ball_state(now));
         serde_json::to_string(&view).unwrap_or_default()
     }
 

@@ -63,6 +63,8 @@ impl Histogram {
 /// What the I/O shell counts (the engine counts what it decides).
 #[derive(Debug, Default)]
 pub struct ShellStats {
+    /// Observation and status payloads that arrived (whatever became of them).
+    pub inputs_received: AtomicU64,
     pub states_published: AtomicU64,
     pub ws_clients: AtomicU64,
     pub ws_frames_sent: AtomicU64,

@@ -18,10 +18,12 @@ use sim::truth_log::{TruthLogBuilder, TruthLogError};
 use sim::{Delivery, ObsKind};
 use std::collections::BTreeMap;
 
+mod seek;
 mod states_csv;
 mod summary;
 mod times;
 
+pub use seek::{SNAPSHOT_EVERY_S, Seeker, feed, is_input};
 pub use states_csv::StatesCsv;
 pub use summary::{ReplayOutputs, summary_json, summary_text};
 use times::Schedule;

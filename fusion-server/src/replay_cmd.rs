@@ -1,9 +1,8 @@
 //! `simulate` and `replay`: match logs written from the simulator, re-fused offline, or
 //! played back over Zenoh and HTTP as if live.
 
-use crate::cli::{ReplayArgs, SimulateArgs, serve_config, shutdown_signal};
+use crate::cli::{ReplayArgs, SimulateArgs, bind_http, serve_config, shutdown_signal};
 use anyhow::{Context, Result};
-use fusion_server::live::ScaledClock;
 use fusion_server::matchlog::{RecorderSink, write_simulated};
 use fusion_server::mcap_read::{LogMessage, read_logs};
 use fusion_server::net::NetConfig;
@@ -11,7 +10,9 @@ use fusion_server::record::RecorderConfig;
 use fusion_server::replay::{
     ReplayOptions, ReplayOutputs, StatesCsv, replay, summary_json, summary_text,
 };
+use fusion_server::replay_live::{Deliver, PlayConfig, ReplayControl, play};
 use fusion_server::serve;
+use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
 use std::collections::BTreeSet;
 use std::fs::File;
@@ -167,13 +168,40 @@ pub fn offline(a: ReplayArgs) -> Result<()> {
     Ok(())
 }
 
+/// Re-sends recorded inputs over Zenoh, declaring each robot's liveliness token when the
+/// robot first appears.
+struct ZenohDeliver {
+    session: zenoh::Session,
+    keys: KeySpace,
+    seen: BTreeSet<String>,
+    tokens: Vec<zenoh::liveliness::LivelinessToken>,
+}
+
+impl Deliver for ZenohDeliver {
+    fn deliver<'a>(&'a mut self, m: &'a LogMessage) -> BoxFuture<'a, ()> {
+        Box::pin(async move {
+            if let Some(id) = self.keys.robot_id_of(&m.topic)
+                && self.seen.insert(id.to_string())
+            {
+                match self.keys.robot_liveliness(id) {
+                    Ok(key) => match self.session.liveliness().declare_token(key).await {
+                        Ok(t) => self.tokens.push(t),
+                        Err(e) => tracing::warn!("declaring robot {id}'s token: {e}"),
+                    },
+                    Err(e) => tracing::warn!("robot {id}: {e}"),
+                }
+            }
+            if let Err(e) = self.session.put(m.topic.as_str(), m.data.clone()).await {
+                tracing::warn!("re-publishing {}: {e}", m.topic);
+            }
+        })
+    }
+}
+
 /// Plays the log back in (scaled) real time: a server whose clock runs through the match,
 /// fed over Zenoh by a publisher that re-sends each recorded message when it was received.
+/// Pause, speed and seeks come from the control endpoints (the coach's page).
 pub async fn realtime(a: ReplayArgs) -> Result<()> {
-    anyhow::ensure!(
-        a.speed.is_finite() && a.speed > 0.0,
-        "--speed must be positive"
-    );
     anyhow::ensure!(
         a.at.is_empty() && a.align.is_none() && a.until.is_none() && a.states_csv.is_none(),
         "--at, --align, --until and --states-csv are for offline replay, not --realtime"
@@ -183,57 +211,49 @@ pub async fn realtime(a: ReplayArgs) -> Result<()> {
         cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
     }
     let messages = read(&a.files)?;
-    let Some(first) = messages.first() else {
+    let (Some(first), Some(last)) = (messages.first(), messages.last()) else {
         anyhow::bail!("the log holds no messages");
     };
-    let clock = ScaledClock::new(first.log_time, a.speed);
-    let live = serve::shared(&cfg, Arc::new(clock), None)?;
-    let http = tokio::net::TcpListener::bind(&cfg.http)
-        .await
-        .with_context(|| format!("cannot listen for HTTP on {}", cfg.http))?;
+    let control = Arc::new(
+        ReplayControl::new(first.log_time, last.log_time, a.speed)
+            .map_err(|e| anyhow::anyhow!("--speed: {e}"))?,
+    );
+    let live = serve::shared(&cfg, control.clock.clone(), None)?;
+    live.set_replay(control.clone());
+    let http = bind_http(&cfg.http).await?;
     println!("http://{}/", http.local_addr()?);
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let mut server_stop = stop_rx;
     let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
         let _ = server_stop.wait_for(|s| *s).await;
     }));
-    let publisher = NetConfig::connecting(&cfg.net.listen[0]).open().await?;
+    let session = NetConfig::connecting(&cfg.net.listen[0]).open().await?;
     let keys = KeySpace::new(&cfg.prefix)?;
-    let mut tokens = Vec::new();
-    let mut seen = BTreeSet::new();
+    let mut deliver = ZenohDeliver {
+        session: session.clone(),
+        keys: keys.clone(),
+        seen: BTreeSet::new(),
+        tokens: Vec::new(),
+    };
+    let play_cfg = PlayConfig {
+        engine: cfg.engine.clone(),
+        keys,
+        stay: a.stay,
+    };
     let mut bar = progress_bar("replay");
-    let total = messages.len();
-    for (i, m) in messages.iter().enumerate() {
-        let known = matches!(m.schema_name.as_str(), "Observation" | "RobotStatus");
-        if !known {
-            continue;
-        }
-        if let Some(id) = keys.robot_id_of(&m.topic)
-            && seen.insert(id.to_string())
-        {
-            let token = publisher
-                .liveliness()
-                .declare_token(keys.robot_liveliness(id)?)
-                .await
-                .map_err(|e| anyhow::anyhow!("robot token: {e}"))?;
-            tokens.push(token);
-        }
-        let wake = clock.instant_of(m.log_time);
-        tokio::select! {
-            _ = tokio::time::sleep_until(wake.into()) => {}
-            _ = shutdown_signal() => break,
-        }
-        if let Err(e) = publisher.put(m.topic.as_str(), m.data.clone()).await {
-            tracing::warn!("re-publishing {}: {e}", m.topic);
-        }
-        if i % 1000 == 0 {
-            bar(i, total);
-        }
-    }
-    bar(total, total);
-    drop(tokens);
+    play(
+        live,
+        control,
+        &messages,
+        play_cfg,
+        &mut deliver,
+        &mut bar,
+        shutdown_signal(),
+    )
+    .await;
+    drop(deliver);
     let _ = stop_tx.send(true);
     server.await??;
-    let _ = publisher.close().await;
+    let _ = session.close().await;
     Ok(())
 }

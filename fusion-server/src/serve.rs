@@ -2,7 +2,7 @@
 //! state, the HTTP server, and the loop that publishes the ball state.
 
 use crate::engine::{Engine, EngineConfig};
-use crate::live::{Clock, Live, MatchLog};
+use crate::live::{Clock, ControlAccess, Live, MatchLog};
 use crate::net::NetConfig;
 use crate::query;
 use anyhow::{Context, Result};
@@ -28,6 +28,9 @@ pub struct ServeConfig {
     /// Frames a live-stream client may fall behind before it skips.
     pub stream_buffer: usize,
     pub engine: EngineConfig,
+    /// Token the control endpoints (`POST /api/replay/…`) require as
+    /// `Authorization: Bearer TOKEN`; without one, only this machine may use them.
+    pub control_token: Option<String>,
 }
 
 impl Default for ServeConfig {
@@ -41,6 +44,7 @@ impl Default for ServeConfig {
             publish_on_update: false,
             stream_buffer: 8,
             engine: EngineConfig::default(),
+            control_token: None,
         }
     }
 }
@@ -55,14 +59,19 @@ pub fn shared(
     log: Option<Arc<dyn MatchLog>>,
 ) -> Result<Shared> {
     let keys = KeySpace::new(&cfg.prefix).context("bad key prefix")?;
-    Ok(Arc::new(Live::new(
+    let live = Live::new(
         Engine::new(cfg.engine.clone()),
         keys,
         clock,
         cfg.stream_buffer,
         cfg.publish_on_update,
         log,
-    )))
+    );
+    live.set_control_access(match &cfg.control_token {
+        Some(t) => ControlAccess::Token(t.clone()),
+        None => ControlAccess::LoopbackOnly,
+    });
+    Ok(Arc::new(live))
 }
 
 /// Serves until `shutdown` resolves: Zenoh in and out on `cfg.net`, HTTP on `http`.
@@ -134,11 +143,14 @@ pub async fn serve(
     let app = crate::http::app(live.clone());
     let mut http_stop = stop_rx.clone();
     let http_task = tokio::spawn(async move {
-        axum::serve(http, app)
-            .with_graceful_shutdown(async move {
-                let _ = http_stop.wait_for(|s| *s).await;
-            })
-            .await
+        axum::serve(
+            http,
+            app.into_make_service_with_connect_info::<std::net::SocketAddr>(),
+        )
+        .with_graceful_shutdown(async move {
+            let _ = http_stop.wait_for(|s| *s).await;
+        })
+        .await
     });
     tokio::spawn(async move {
         shutdown.await;

@@ -1,90 +1,221 @@
-// The coach's page in a real browser against a running demo: the server and four robot
-// agents (rendered cameras of a simulated match, the real perception) on loopback, or the
-// modelled robots when the agent binary is not built. Checks that the page goes live, lists
-// the robots online,
-// shows the ball and draws it on the pitch; saves a screenshot.
+// The coach's page in a real browser (Debian's Chromium driven by playwright-core).
+//
+// Live: a server and ten simulated MiRos in two processes (nine, and one to kill) on
+// loopback. The ball is drawn where /api/state says and moves; every reporting robot's
+// sightings are drawn as ellipses; a click on a robot shows its intercept; the killed robot
+// turns grey within a second; a frozen server is marked stale and a restarted one is
+// reconnected to; the frame rate is measured; screenshots at desktop and phone sizes.
+// Replay: a simulated match log played as if live; the timeline seeks, the clock follows,
+// pause and speed work. No console errors (except while the server is deliberately down).
 //
 //   FUSION_SERVER=target/debug/fusion-server node web/tests/page.test.mjs
-import { spawn } from "node:child_process";
-import { createServer } from "node:net";
-import { mkdirSync } from "node:fs";
+import { mkdirSync, mkdtempSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
 import { chromium } from "playwright-core";
+import {
+  bin, browserArgs, browserPath, check, fail, failed, freePort, getJson, killAll, lineOf, sleep, start, stop, until,
+} from "./support.mjs";
+import { replayChecks } from "./replay.check.mjs";
 
-const bin = process.env.FUSION_SERVER ?? "target/debug/fusion-server";
-const browserPath = process.env.CHROMIUM ?? "/usr/bin/chromium";
+const SHOTS = "out/screenshots";
+const ROBOTS = 10;
+const VICTIM = `miro${ROBOTS}`;
+const GREY = "#9e9e9e";
+const watchdog = setTimeout(() => {
+  fail("the browser test took longer than 6 minutes");
+  killAll();
+  process.exit(1);
+}, 360_000);
 
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const s = createServer();
-    s.listen(0, "127.0.0.1", () => {
-      const { port } = s.address();
-      s.close(() => resolve(port));
-    });
-    s.on("error", reject);
+/// The page's debug snapshot.
+const tb = (page) => page.evaluate(() => window.__teamBall);
+
+/// Console errors, page errors and failed requests, unless `expected` is set.
+function watchErrors(page, errors, phase) {
+  page.on("console", (m) => {
+    if (m.type() === "error" && !phase.expectErrors) errors.push(`console: ${m.text()}`);
+  });
+  page.on("pageerror", (e) => errors.push(`page error: ${e}`));
+  page.on("response", (r) => {
+    if (r.status() >= 400 && !phase.expectErrors) errors.push(`HTTP ${r.status()} for ${r.url()}`);
   });
 }
 
-function fail(msg) {
-  console.error(`FAIL: ${msg}`);
-  process.exitCode = 1;
+async function startServer(httpPort, zenohPort) {
+  const server = start(["serve", "--http", `127.0.0.1:${httpPort}`, "--listen", `tcp/127.0.0.1:${zenohPort}`,
+    "--id", "web-test"], "server");
+  const url = await lineOf(server, /^(http:\/\/\S+\/)$/m);
+  return { server, url };
 }
 
-const [httpPort, zenohPort] = [await freePort(), await freePort()];
-const demo = spawn(bin, [
-  "demo", "--http", `127.0.0.1:${httpPort}`, "--listen", `tcp/127.0.0.1:${zenohPort}`, "--for-s", "90",
-], { stdio: ["ignore", "pipe", "inherit"], env: { ...process.env, RUST_LOG: "warn,zenoh=error" } });
-let demoOut = "";
-const url = await new Promise((resolve, reject) => {
-  demo.stdout.on("data", (d) => {
-    demoOut += d;
-    const m = demoOut.match(/Open (http:\/\/\S+\/)/);
-    if (m) resolve(m[1]);
-  });
-  demo.on("exit", (code) => reject(new Error(`demo exited early (${code})`)));
-  setTimeout(() => reject(new Error("demo printed no address")), 60_000);
-});
+async function liveChecks(browser) {
+  const [httpPort, zenohPort] = [await freePort(), await freePort()];
+  let { server, url } = await startServer(httpPort, zenohPort);
+  const startNs = (BigInt(Date.now()) * 1_000_000n + 2_000_000_000n).toString();
+  const robotArgs = (only) => ["sim-robots", "--connect", `tcp/127.0.0.1:${zenohPort}`, "--scenario", "match",
+    "--seed", "2", "--team-size", String(ROBOTS), "--duration-s", "240", "--start-ns", startNs, "--only", only];
+  const others = Array.from({ length: ROBOTS - 1 }, (_, i) => `miro${i + 1}`).join(",");
+  const team = start(robotArgs(others), "robots");
+  const victim = start(robotArgs(VICTIM), VICTIM);
 
-const browser = await chromium.launch({
-  executablePath: browserPath,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync"],
-});
-try {
-  const page = await browser.newPage({ viewport: { width: 1200, height: 700 } });
+  const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   const errors = [];
-  page.on("pageerror", (e) => errors.push(String(e)));
+  const phase = { expectErrors: false };
+  watchErrors(page, errors, phase);
   await page.goto(url);
-  await page.waitForFunction(() => document.getElementById("conn").textContent === "live", null, { timeout: 30_000 });
-  await page.waitForFunction(
-    () => document.querySelectorAll("#robots tr").length === 4 &&
-      [...document.querySelectorAll("#robots tr td:nth-child(2)")].every((td) => td.textContent === "yes"),
-    null, { timeout: 30_000 });
-  await page.waitForFunction(() => !document.getElementById("ball").textContent.startsWith("not seen"), null, { timeout: 60_000 });
-  const ball = await page.textContent("#ball");
-  if (!/^(tracking|coasting|stopped|lost) at \(/.test(ball)) fail(`ball readout: ${ball}`);
-  // The ball is drawn: some pixels of the canvas have the ball's orange.
-  const orange = await page.evaluate(() => {
-    const c = document.getElementById("pitch");
-    const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+  await page.waitForFunction(() => window.__teamBall && window.__teamBall.connection === "live", null, { timeout: 30_000 });
+  const online = await until(`${ROBOTS} robots online on the page`, async () => {
+    const s = await tb(page);
+    const on = Object.values(s.robots).filter((r) => r.online).length;
+    return on === ROBOTS && s;
+  }, 60_000);
+  check(Object.keys(online.robots).length === ROBOTS, `${ROBOTS} robots drawn online`);
+
+  // The ball is drawn where the server says, and it moves.
+  await until("a ball on the page", async () => (await tb(page)).ball, 60_000);
+  const [snap, state] = await Promise.all([tb(page), getJson(url, "/api/state")]);
+  const dx = Math.hypot(snap.ball.x_m - state.ball.position_m[0], snap.ball.y_m - state.ball.position_m[1]);
+  check(dx < 0.25, `ball drawn ${dx.toFixed(3)} m from /api/state's position`);
+  const w = snap.canvas.width_px;
+  const scale = (w - 32) / state.pitch.length_m;
+  const pxErr = Math.hypot(snap.ball.px - (w / 2 + snap.ball.x_m * scale),
+    snap.ball.py - (snap.canvas.height_px / 2 - snap.ball.y_m * scale));
+  check(pxErr < 1, `ball marker at its field position on the canvas (${pxErr.toFixed(2)} px off)`);
+  const first = snap.ball;
+  const moved = await until("the ball to move", async () => {
+    const b = (await tb(page)).ball;
+    const d = b && Math.hypot(b.x_m - first.x_m, b.y_m - first.y_m);
+    return d > 0.1 && d;
+  }, 30_000, 100).catch((e) => fail(e.message));
+  if (moved) check(true, `ball marker moved ${moved.toFixed(2)} m`);
+
+  // One ellipse (at least) per robot reporting sightings.
+  const api = await getJson(url, "/api/state");
+  const counts = {};
+  for (const o of api.observations) if (o.accepted) counts[o.robot_id] = (counts[o.robot_id] || 0) + 1;
+  const reporting = Object.keys(counts).filter((id) => counts[id] >= 3);
+  const seen = new Set();
+  await until("an ellipse per reporting robot", async () => {
+    for (const id of Object.keys((await tb(page)).ellipses)) seen.add(id);
+    return reporting.every((id) => seen.has(id));
+  }, 3000).catch(() => {});
+  check(reporting.length > 0 && reporting.every((id) => seen.has(id)),
+    `observation ellipses for every reporting robot (${reporting.join(", ")}; drawn for ${[...seen].sort().join(", ")})`);
+
+  // The panel: a row per robot with its rate, trust, latency and outliers; rejections by reason.
+  await until("the panel's robots and rejections", async () => {
+    const [rows, reasons, apiNow] = await Promise.all([
+      page.$$eval("#robots tr", (trs) => trs.map((tr) => [...tr.children].map((td) => td.textContent))),
+      page.$$eval("#rejected li[data-reason]", (lis) => lis.map((li) => li.dataset.reason)),
+      getJson(url, "/api/state"),
+    ]);
+    const same = JSON.stringify(reasons.sort()) === JSON.stringify(Object.keys(apiNow.rejected).sort());
+    return rows.length === ROBOTS && rows.every((r) => r.length === 6 && /ms$/.test(r[4])) && same;
+  }, 5000)
+    .then(() => check(true, "panel: every robot with rate, trust, latency and outliers; the rejections by reason as the server counts them"))
+    .catch(() => fail("the panel's robot table or rejection list does not match the server"));
+
+  // The frame rate with ten robots, measured in the browser over 5 s.
+  const fps = await page.evaluate(() => new Promise((resolve) => {
     let n = 0;
-    for (let i = 0; i < d.length; i += 4) {
-      if (d[i] > 230 && d[i + 1] > 60 && d[i + 1] < 190 && d[i + 2] < 170) n++;
-    }
-    return n;
-  });
-  if (orange < 10) fail(`no ball drawn on the pitch (${orange} orange pixels)`);
-  // Real agents report their cameras' floor footprints, and the page draws them.
-  if (demoOut.includes("robot-agent processes")) {
-    await page.waitForFunction(() => Number(document.getElementById("pitch").dataset.footprints) >= 4, null, { timeout: 30_000 })
-      .catch(() => fail("no camera footprints drawn"));
+    const t0 = performance.now();
+    const step = (t) => {
+      n += 1;
+      if (t - t0 < 5000) requestAnimationFrame(step);
+      else resolve((n - 1) / ((t - t0) / 1000));
+    };
+    requestAnimationFrame(step);
+  }));
+  const pageFps = (await tb(page)).drawFps;
+  console.log(`frame rate with ${ROBOTS} simulated robots: ${fps.toFixed(1)} frames/s (the page's own count: ${pageFps.toFixed(1)})`);
+
+  // A click on a robot shows where it meets the ball.
+  const pick = Object.entries((await tb(page)).robots).find(([, r]) => r.online);
+  const box = await page.locator("#pitch").boundingBox();
+  await page.mouse.click(box.x + pick[1].px, box.y + pick[1].py);
+  const icpt = await until("an intercept on the page", async () => {
+    const s = await tb(page);
+    return s.intercept && s.intercept.robot_id === pick[0] && s.intercept;
+  }, 10_000).catch((e) => fail(e.message));
+  if (icpt) {
+    // The panel is refreshed a few times a second.
+    const text = await until("the intercept in the panel", async () => {
+      const t = await page.textContent("#intercept");
+      return t.includes(pick[0]) && t.includes("meets the ball") && t;
+    }, 3000).catch(async () => page.textContent("#intercept"));
+    check(text.includes(pick[0]) && text.includes("meets the ball"),
+      `click on ${pick[0]}: intercept in ${icpt.t_s.toFixed(2)} s at (${icpt.point_m.map((v) => v.toFixed(2)).join(", ")}) m, "${text}"`);
   }
-  mkdirSync("out", { recursive: true });
-  await page.screenshot({ path: "out/web-demo.png" });
-  if (errors.length) fail(`page errors: ${errors.join("; ")}`);
-  if (!process.exitCode) console.log(`ok: page live, 4 robots online, ball "${ball}", ${orange} ball pixels; screenshot out/web-demo.png`);
+
+  mkdirSync(SHOTS, { recursive: true });
+  await page.screenshot({ path: `${SHOTS}/desktop.png` });
+  // A click off the robots forgets the choice.
+  await page.mouse.click(box.x + 3, box.y + 3);
+  await until("the choice forgotten", async () => !(await tb(page)).selected, 2000)
+    .then(() => check(true, "a click off the robots forgets the intercept"))
+    .catch(() => fail("the intercept stayed after a click off the robots"));
+  await page.setViewportSize({ width: 390, height: 844 });
+  await sleep(500);
+  const [field, panel] = [await page.locator("#field").boundingBox(), await page.locator("#panel").boundingBox()];
+  check(panel.y >= field.y + field.height - 1 && field.width <= 390,
+    `phone size: the panel is below the pitch (pitch ${field.width.toFixed(0)} px wide)`);
+  await page.screenshot({ path: `${SHOTS}/phone.png`, fullPage: true });
+  await page.setViewportSize({ width: 1280, height: 800 });
+
+  // A robot killed turns grey within a second.
+  const killedAt = Date.now();
+  victim.child.kill("SIGKILL");
+  const grey = await page.waitForFunction((id) => {
+    const r = window.__teamBall.robots[id];
+    return r && !r.online && r.colour;
+  }, VICTIM, { timeout: 1000, polling: "raf" }).then((h) => h.jsonValue()).catch(() => null);
+  const greyMs = Date.now() - killedAt;
+  check(grey === GREY, `${VICTIM} killed: drawn grey after ${greyMs} ms (limit 1000 ms)`);
+  const row = await page.getAttribute(`#robots tr[data-robot="${VICTIM}"]`, "data-online").catch(() => null);
+  await until("the robot table to say offline", async () =>
+    (await page.getAttribute(`#robots tr[data-robot="${VICTIM}"]`, "data-online")) === "no", 2000)
+    .then(() => check(true, `robot table: ${VICTIM} offline`))
+    .catch(() => fail(`robot table still says ${row} for ${VICTIM}`));
+
+  // A server that stops answering is marked stale; a restarted one is reconnected to.
+  server.child.kill("SIGSTOP");
+  await page.waitForFunction(() => window.__teamBall.connection === "stale", null, { timeout: 5000 })
+    .then(() => check(true, "a frozen server: the page says stale"))
+    .catch(() => fail("no stale mark while the server was frozen"));
+  server.child.kill("SIGCONT");
+  await page.waitForFunction(() => window.__teamBall.connection === "live", null, { timeout: 5000 })
+    .catch(() => fail("not live again after the server resumed"));
+  phase.expectErrors = true;
+  await stop(server);
+  await page.waitForFunction(() => window.__teamBall.connection === "down", null, { timeout: 5000 })
+    .catch(() => fail("no disconnected mark while the server was down"));
+  ({ server } = await startServer(httpPort, zenohPort));
+  const before = (await tb(page)).frames;
+  await page.waitForFunction((n) => window.__teamBall.connection === "live" && window.__teamBall.frames > n + 5,
+    before, { timeout: 15_000 })
+    .then(() => check(true, "the page reconnected to the restarted server by itself"))
+    .catch(() => fail("the page did not reconnect to the restarted server"));
+  phase.expectErrors = false;
+  await sleep(500);
+  check(errors.length === 0, `no console errors on the live page${errors.length ? `: ${errors.join("; ")}` : ""}`);
+  await page.close();
+  await Promise.all([stop(team), stop(server)]);
+  return fps;
+}
+
+const browser = await chromium.launch({ executablePath: browserPath, args: browserArgs });
+const workDir = mkdtempSync(join(tmpdir(), "team-ball-web-"));
+try {
+  console.log(`server binary: ${bin}`);
+  const fps = await liveChecks(browser);
+  await replayChecks(browser, workDir, SHOTS);
+  if (!failed()) console.log(`all browser checks passed; ${ROBOTS} robots drawn at ${fps.toFixed(1)} frames/s; screenshots in ${SHOTS}/`);
 } catch (e) {
-  fail(e.message);
+  fail(e.stack || e.message);
 } finally {
+  clearTimeout(watchdog);
   await browser.close();
-  demo.kill("SIGTERM");
+  killAll();
+  rmSync(workDir, { recursive: true, force: true });
 }

@@ -90,3 +90,24 @@ fn a_pitch_that_does_not_work_is_refused_with_its_reason() -> Result<()> {
     );
     Ok(())
 }
+
+#[test]
+fn a_control_token_must_be_long_enough_to_guess_hard() -> Result<()> {
+    let args = [
+        "replay",
+        "--realtime",
+        "--control-token",
+        "s3cret-token",
+        "m.mcap",
+    ];
+    let (cfg, _) = serve_config(&serve_args(&args))?;
+    assert_eq!(cfg.control_token.as_deref(), Some("s3cret-token"));
+    let (cfg, _) = serve_config(&serve_args(&["serve"]))?;
+    assert_eq!(cfg.control_token, None, "loopback only by default");
+    for bad in ["short", "has space in it"] {
+        let err =
+            serve_config(&serve_args(&["serve", "--control-token", bad])).expect_err("refused");
+        assert!(err.to_string().contains("--control-token"), "{err}");
+    }
+    Ok(())
+}

@@ -180,3 +180,40 @@ async fn the_stream_pushes_states_and_a_stuck_client_only_loses_frames() -> anyh
     server.abort();
     Ok(())
 }
+
+#[tokio::test]
+async fn the_state_shows_recent_sightings_with_reasons_and_rejections() {
+    let (live, clock) = live_with_ball();
+    // A sighting far off the pitch: refused, and shown with the reason.
+    let far = Observation {
+        version: proto::VERSION,
+        robot_id: "miro1".into(),
+        seq: 99,
+        camera: Camera::Left,
+        stamp: Stamp(clock.0.load(Ordering::SeqCst)).offset_secs(-0.02),
+        position_m: [4.0, 0.0],
+        covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
+        confidence: 0.9,
+        robot_pose: Pose2::default(),
+        pixel: None,
+    };
+    live.on_observation("rf/robots/miro1/obs", &proto::encode(&far));
+    let (s, body) = get(app(live), "/api/state").await;
+    assert_eq!(s, StatusCode::OK);
+    let v = json(&body);
+    let obs = v["observations"].as_array().expect("observations");
+    assert_eq!(obs.len(), 31, "the last 2 s: {body}");
+    assert!(
+        obs[..30]
+            .iter()
+            .all(|o| o["accepted"] == true && o["reason"].is_null())
+    );
+    assert_eq!(obs[30]["accepted"], false);
+    assert_eq!(obs[30]["reason"], "outside_pitch");
+    assert_eq!(obs[30]["covariance_m2"][0], 4e-4);
+    assert_eq!(v["rejected"]["observation/not_json"], 1);
+    assert_eq!(v["rejected"]["observation/outside_pitch"], 1);
+    assert!(v["replay"].is_null());
+    let latency_s = v["robots"][0]["latency_s"].as_f64().expect("latency");
+    assert!((latency_s - 0.05).abs() < 1e-6, "{latency_s}");
+}

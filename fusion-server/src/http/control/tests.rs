@@ -1,0 +1,380 @@
+//! The replay's control endpoints over real HTTP (a port-0 listener, the server as
+//! `serve` runs it), with the playing loop fed straight into the shared state.
+
+use super::*;
+use crate::engine::{Engine, EngineConfig};
+use crate::mcap_read::LogMessage;
+use crate::replay_live::{Deliver, PlayConfig, play};
+use futures_util::future::BoxFuture;
+use proto::{Camera, KeySpace, Observation, Pose2, Stamp};
+use std::time::{Duration, Instant};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+const T0: Stamp = Stamp(1_800_000_000_000_000_000);
+/// The log's length, seconds.
+const LOG_S: f64 = 40.0;
+
+/// Where the ball rolls: slowly along x, so a state tells the match time.
+fn ball_x_m(t_s: f64) -> f64 {
+    -1.5 + 0.07 * t_s
+}
+
+/// `LOG_S` seconds of two robots seeing the ball at 10 Hz each.
+fn log() -> Vec<LogMessage> {
+    (0..(LOG_S * 20.0) as u64 + 1)
+        .map(|i| {
+            let t_s = i as f64 / 20.0;
+            let robot = if i % 2 == 0 { "miro1" } else { "miro2" };
+            let at = T0.offset_secs(t_s);
+            let obs = Observation {
+                version: proto::VERSION,
+                robot_id: robot.into(),
+                seq: i,
+                camera: Camera::Left,
+                stamp: at.offset_secs(-0.03),
+                position_m: [ball_x_m(t_s - 0.03), 0.2],
+                covariance_m2: [1e-4, 0.0, 0.0, 1e-4],
+                confidence: 0.9,
+                robot_pose: Pose2::default(),
+                pixel: None,
+            };
+            LogMessage {
+                topic: format!("rf/robots/{robot}/obs"),
+                schema_name: "Observation".into(),
+                log_time: at,
+                publish_time: at,
+                data: proto::encode(&obs),
+            }
+        })
+        .collect()
+}
+
+/// Hands inputs straight to the shared state, as the Zenoh subscriber would.
+struct Direct(Arc<Live>);
+
+impl Deliver for Direct {
+    fn deliver<'a>(&'a mut self, m: &'a LogMessage) -> BoxFuture<'a, ()> {
+        Box::pin(async move { self.0.on_observation(&m.topic, &m.data) })
+    }
+}
+
+struct Replaying {
+    addr: SocketAddr,
+    live: Arc<Live>,
+    stop: tokio::sync::oneshot::Sender<()>,
+    player: tokio::task::JoinHandle<usize>,
+}
+
+/// A replaying server on a port-0 listener.
+async fn replaying(access: ControlAccess) -> Replaying {
+    let messages = log();
+    let control = Arc::new(
+        ReplayControl::new(
+            messages[0].log_time,
+            messages[messages.len() - 1].log_time,
+            1.0,
+        )
+        .expect("control"),
+    );
+    let live = Arc::new(Live::new(
+        Engine::new(EngineConfig::default()),
+        KeySpace::default(),
+        control.clock.clone(),
+        4,
+        false,
+        None,
+    ));
+    live.set_replay(control.clone());
+    live.set_control_access(access);
+    let addr = serve_http(live.clone()).await;
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let l = live.clone();
+    let player = tokio::spawn(async move {
+        let cfg = PlayConfig {
+            engine: EngineConfig::default(),
+            keys: KeySpace::default(),
+            stay: true,
+        };
+        let mut deliver = Direct(l.clone());
+        play(
+            l,
+            control,
+            &messages,
+            cfg,
+            &mut deliver,
+            &mut |_, _| {},
+            async {
+                stopped.await.ok();
+            },
+        )
+        .await
+    });
+    Replaying {
+        addr,
+        live,
+        stop,
+        player,
+    }
+}
+
+async fn serve_http(live: Arc<Live>) -> SocketAddr {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("listener");
+    let addr = listener.local_addr().expect("address");
+    let app = crate::http::app(live).into_make_service_with_connect_info::<SocketAddr>();
+    tokio::spawn(axum::serve(listener, app).into_future());
+    addr
+}
+
+/// One HTTP/1.1 request: (status, body).
+async fn request(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    headers: &[(&str, &str)],
+    body: &str,
+) -> (u16, String) {
+    let mut s = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let mut head = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n",
+        body.len()
+    );
+    for (k, v) in headers {
+        head.push_str(&format!("{k}: {v}\r\n"));
+    }
+    head.push_str("\r\n");
+    s.write_all(head.as_bytes()).await.expect("write");
+    s.write_all(body.as_bytes()).await.expect("write");
+    let mut raw = String::new();
+    tokio::time::timeout(Duration::from_secs(10), s.read_to_string(&mut raw))
+        .await
+        .expect("an answer within 10 s")
+        .expect("read");
+    let (head, body) = raw.split_once("\r\n\r\n").unwrap_or((&raw, ""));
+    let code = head
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    (code, body.to_string())
+}
+
+async fn status_of(addr: SocketAddr) -> serde_json::Value {
+    let (code, body) = request(addr, "GET", "/api/replay", &[], "").await;
+    assert_eq!(code, 200, "{body}");
+    serde_json::from_str(&body).expect("JSON")
+}
+
+async fn post(addr: SocketAddr, action: &str, body: &str) -> (u16, serde_json::Value) {
+    let path = format!("/api/replay/{action}");
+    let (code, text) = request(addr, "POST", &path, &[], body).await;
+    (code, serde_json::from_str(&text).expect("a JSON answer"))
+}
+
+/// Polls `f` every 20 ms for up to 10 s.
+async fn eventually<T>(what: &str, mut f: impl AsyncFnMut() -> Option<T>) -> T {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        if let Some(v) = f().await {
+            return v;
+        }
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+fn ball_x(live: &Live) -> Option<f64> {
+    let v: serde_json::Value = serde_json::from_str(&live.view_json()).ok()?;
+    v["ball"]["position_m"][0].as_f64()
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn the_replay_pauses_seeks_and_changes_speed_over_http() {
+    let r = replaying(ControlAccess::LoopbackOnly).await;
+    let s = status_of(r.addr).await;
+    assert_eq!(s["paused"], false);
+    assert!(
+        (s["duration_s"].as_f64().expect("duration") - LOG_S).abs() < 1e-6,
+        "{s}"
+    );
+    eventually("a ball", async || ball_x(&r.live)).await;
+
+    // Paused, the clock stands still.
+    let (code, s) = post(r.addr, "pause", "").await;
+    assert_eq!(code, 200, "{s}");
+    assert_eq!(s["paused"], true);
+    let t1 = status_of(r.addr).await["t_s"].as_f64().expect("t_s");
+    tokio::time::sleep(Duration::from_millis(150)).await;
+    let t2 = status_of(r.addr).await["t_s"].as_f64().expect("t_s");
+    assert_eq!(t1, t2);
+
+    // A seek moves the clock and re-fuses the log up to there.
+    let (code, s) = post(r.addr, "seek", r#"{"t_s": 30}"#).await;
+    assert_eq!(code, 200, "{s}");
+    assert!((s["t_s"].as_f64().expect("t_s") - 30.0).abs() < 1e-6, "{s}");
+    let x = eventually("the ball at 30 s", async || {
+        ball_x(&r.live).filter(|x| (x - ball_x_m(30.0)).abs() < 0.1)
+    })
+    .await;
+    assert!((x - ball_x_m(30.0)).abs() < 0.1, "{x}");
+    let accepted = r.live.with_engine(|e| e.counters().observations_accepted);
+    assert!(
+        (590..=605).contains(&accepted),
+        "re-fused up to 30 s: {accepted}"
+    );
+    // Back in time, too.
+    let (code, _) = post(r.addr, "seek", r#"{"t_s": 5.5}"#).await;
+    assert_eq!(code, 200);
+    eventually("the ball at 5.5 s", async || {
+        ball_x(&r.live).filter(|x| (x - ball_x_m(5.5)).abs() < 0.1)
+    })
+    .await;
+
+    // Faster, then playing: the clock runs at the new speed.
+    let (code, s) = post(r.addr, "speed", r#"{"speed": 4}"#).await;
+    assert_eq!((code, s["speed"].as_f64()), (200, Some(4.0)), "{s}");
+    let (code, _) = post(r.addr, "play", "").await;
+    assert_eq!(code, 200);
+    assert_eq!(status_of(r.addr).await["paused"], false);
+    let (wall, t1) = (Instant::now(), r.live.clock.now());
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let rate = r.live.clock.now().secs_since(t1) / wall.elapsed().as_secs_f64();
+    assert!(
+        (3.9..=4.1).contains(&rate),
+        "match seconds per second: {rate}"
+    );
+    eventually("the ball following the clock", async || {
+        let t_s = r.live.clock.now().secs_since(T0);
+        ball_x(&r.live).filter(|x| (x - ball_x_m(t_s)).abs() < 0.1)
+    })
+    .await;
+
+    // Near the end, it plays out and stands at the end.
+    let (code, _) = post(r.addr, "seek", r#"{"t_s": 39}"#).await;
+    assert_eq!(code, 200);
+    let s = eventually("the end", async || {
+        let s = status_of(r.addr).await;
+        (s["ended"] == true).then_some(s)
+    })
+    .await;
+    assert_eq!(s["paused"], true, "{s}");
+    assert!((s["t_s"].as_f64().expect("t_s") - LOG_S).abs() < 0.2, "{s}");
+
+    r.stop.send(()).ok();
+    let delivered = tokio::time::timeout(Duration::from_secs(5), r.player)
+        .await
+        .expect("the loop stops on shutdown")
+        .expect("no panic");
+    assert!(delivered > 0);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn bad_control_requests_are_explained() {
+    let r = replaying(ControlAccess::LoopbackOnly).await;
+    for (action, body, want) in [
+        ("speed", r#"{"speed": 0}"#, 400),
+        ("speed", r#"{"speed": 1000}"#, 400),
+        ("speed", r#"{"speed": "fast"}"#, 400),
+        ("speed", "", 400),
+        ("seek", r#"{"t_s": -1}"#, 400),
+        ("seek", r#"{"t_s": 41}"#, 400),
+        ("seek", r#"{"t": 3}"#, 400),
+        ("seek", "not json", 400),
+        ("rewind", "", 404),
+    ] {
+        let (code, v) = post(r.addr, action, body).await;
+        assert_eq!(code, want, "{action} {body}: {v}");
+        assert!(v["error"].is_string(), "{v}");
+    }
+    // A page of another origin cannot steer it through the coach's browser.
+    let (code, body) = request(
+        r.addr,
+        "POST",
+        "/api/replay/pause",
+        &[("Origin", "http://evil.example")],
+        "",
+    )
+    .await;
+    assert_eq!(code, 403, "{body}");
+    assert_eq!(status_of(r.addr).await["paused"], false);
+    let (code, _) = request(r.addr, "GET", "/api/replay/pause", &[], "").await;
+    assert_eq!(code, 405);
+    r.stop.send(()).ok();
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_control_token_is_required_when_set() {
+    let r = replaying(ControlAccess::Token("s3cret-token".into())).await;
+    for auth in [None, Some("Bearer wrong-token"), Some("s3cret-token")] {
+        let headers: Vec<(&str, &str)> = auth.iter().map(|a| ("Authorization", *a)).collect();
+        let (code, body) = request(r.addr, "POST", "/api/replay/pause", &headers, "").await;
+        assert_eq!(code, 401, "{auth:?}: {body}");
+    }
+    let auth = [("Authorization", "Bearer s3cret-token")];
+    let (code, body) = request(r.addr, "POST", "/api/replay/pause", &auth, "").await;
+    assert_eq!(code, 200, "{body}");
+    assert_eq!(status_of(r.addr).await["paused"], true);
+    r.stop.send(()).ok();
+}
+
+#[test]
+fn without_a_token_only_this_machine_may_steer() {
+    let mut headers = HeaderMap::new();
+    headers.insert(
+        header::HOST,
+        header::HeaderValue::from_static("127.0.0.1:8080"),
+    );
+    let access = ControlAccess::LoopbackOnly;
+    let local: SocketAddr = "127.0.0.1:5000".parse().expect("address");
+    let remote: SocketAddr = "192.0.2.7:5000".parse().expect("address");
+    assert!(allowed(&access, &headers, Some(local)).is_ok());
+    // A site's own name pointed at this machine (DNS rebinding) is refused.
+    let mut rebound = HeaderMap::new();
+    rebound.insert(
+        header::HOST,
+        header::HeaderValue::from_static("evil.example:8080"),
+    );
+    assert!(allowed(&access, &rebound, Some(local)).is_err());
+    for host in ["localhost:8080", "[::1]:8080", "127.0.0.1", "LOCALHOST"] {
+        assert!(loopback_host(host), "{host}");
+    }
+    for host in [
+        "evil.example",
+        "192.0.2.7:80",
+        "localhost.evil.example:80",
+        "[::2]:80",
+    ] {
+        assert!(!loopback_host(host), "{host}");
+    }
+    let refused = allowed(&access, &headers, Some(remote)).expect_err("refused");
+    assert_eq!(refused.status, StatusCode::FORBIDDEN);
+    assert!(allowed(&access, &headers, None).is_err());
+    // With a token, the token decides, wherever the request comes from.
+    let token = ControlAccess::Token("s3cret-token".into());
+    let mut with = HeaderMap::new();
+    with.insert(
+        header::AUTHORIZATION,
+        header::HeaderValue::from_static("Bearer s3cret-token"),
+    );
+    assert!(allowed(&token, &with, Some(remote)).is_ok());
+    assert!(allowed(&token, &headers, Some(local)).is_err());
+    assert!(allowed(&token, &HeaderMap::new(), Some(local)).is_err());
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_live_server_says_it_is_not_replaying() {
+    let live = Arc::new(Live::new(
+        Engine::new(EngineConfig::default()),
+        KeySpace::default(),
+        Arc::new(crate::live::SystemClock),
+        4,
+        false,
+        None,
+    ));
+    let addr = serve_http(live).await;
+    let (code, body) = request(addr, "GET", "/api/replay", &[], "").await;
+    assert_eq!(code, 404, "{body}");
+    let (code, body) = request(addr, "POST", "/api/replay/pause", &[], "").await;
+    assert_eq!(code, 404, "{body}");
+}

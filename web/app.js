@@ -1,0 +1,230 @@
+// The coach's page. The live stream (/api/stream) pushes one JSON frame per published state:
+// { stamp, ball, robots, pitch, observations, rejected, replay }. Frames only update the
+// model; drawing runs on requestAnimationFrame, the panel a few times a second.
+//
+// For tests and curious users, `window.__teamBall` is a read-only snapshot of what the page
+// shows: connection state, the ball and robots as drawn (field and canvas CSS pixels), the
+// sightings drawn per robot, the replay and the chosen robot's intercept.
+
+import { PitchView } from "./pitch.js";
+import { StripChart } from "./chart.js";
+import { ReplayBar } from "./replay.js";
+import { showBall, showIntercept, showRejected, showRobots, showServer } from "./panel.js";
+
+/// No state for this long: the page says the picture is stale.
+const STALE_MS = 1500;
+/// Reconnection delays grow from the first to the last.
+const RETRY_MS = [250, 500, 1000, 2000, 4000];
+/// Length of the ball's trail and of the strip charts (match time).
+const TRAIL_S = 8;
+const HISTORY_S = 30;
+const PANEL_EVERY_MS = 250;
+const INTERCEPT_EVERY_MS = 1000;
+const NS = 1e9;
+
+const el = (id) => document.getElementById(id);
+
+const model = {
+  view: null,
+  receivedAt: 0,
+  connection: "connecting",
+  connectionText: "connecting…",
+  frames: 0,
+  arrivals: [],
+  trail: [],
+  history: [],
+  robotIds: [],
+  selected: null,
+  interceptReply: null,
+  interceptError: null,
+  retries: 0,
+};
+
+const pitch = new PitchView(el("pitch"));
+const speedChart = new StripChart(el("chart-speed"), { label: "speed", unit: "m/s", colour: "#e64a19", window_s: HISTORY_S });
+const ellipseChart = new StripChart(el("chart-ellipse"), { label: "2σ ellipse (major)", unit: "cm", colour: "#1565c0", window_s: HISTORY_S });
+const replayBar = new ReplayBar();
+let drawn = { ball: null, robots: {}, ellipses: {}, rejected: {}, intercept: null };
+const drawTimes = [];
+let lastPanel = 0;
+
+function setConnection(state, text) {
+  model.connection = state;
+  model.connectionText = text;
+}
+
+/// The connection as shown: "stale" when live but no state came for a while.
+function showConnection(now) {
+  let state = model.connection;
+  let text = model.connectionText;
+  if (state === "live" && now - model.receivedAt > STALE_MS) {
+    state = "stale";
+    text = `stale: no state for ${((now - model.receivedAt) / 1000).toFixed(1)} s`;
+  }
+  const c = el("conn");
+  if (c.dataset.state !== state) {
+    c.className = state;
+    c.dataset.state = state;
+  }
+  if (c.textContent !== text) c.textContent = text;
+  return state;
+}
+
+/// One frame from the stream.
+function onFrame(view) {
+  const prev = model.view;
+  model.view = view;
+  model.receivedAt = performance.now();
+  model.frames += 1;
+  model.arrivals.push(model.receivedAt);
+  while (model.arrivals.length && model.receivedAt - model.arrivals[0] > 2000) model.arrivals.shift();
+  const t_s = view.stamp / NS;
+  // The match time jumped (a replay moved): history before it no longer leads here.
+  if (prev && (t_s < prev.stamp / NS - 0.01 || t_s - prev.stamp / NS > 5)) {
+    model.trail = [];
+    model.history = [];
+  }
+  model.robotIds = [...new Set([...model.robotIds, ...view.robots.map((r) => r.robot_id)])]
+    .sort((a, b) => a.localeCompare(b, "en", { numeric: true }));
+  const b = view.ball;
+  if (b) {
+    const last = model.trail[model.trail.length - 1];
+    if (!last || last.t_s !== t_s) model.trail.push({ t_s, x: b.position_m[0], y: b.position_m[1] });
+    const c = b.covariance;
+    const mid = (c[0] + c[5]) / 2;
+    const major_cm = 200 * Math.sqrt(Math.max(0, mid + Math.hypot((c[0] - c[5]) / 2, c[1])));
+    // Only when time moved on: a paused replay repeats one state.
+    const lastH = model.history[model.history.length - 1];
+    if (!lastH || lastH.t_s !== t_s) {
+      model.history.push({ t_s, speed: Math.hypot(b.velocity_mps[0], b.velocity_mps[1]), ellipse_cm: major_cm });
+    }
+  }
+  while (model.trail.length && t_s - model.trail[0].t_s > TRAIL_S) model.trail.shift();
+  while (model.history.length && t_s - model.history[0].t_s > HISTORY_S) model.history.shift();
+  replayBar.show(view.replay || null);
+}
+
+function connect() {
+  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/api/stream`);
+  ws.onopen = () => {
+    model.retries = 0;
+    model.receivedAt = performance.now();
+    setConnection("live", "live");
+  };
+  ws.onmessage = (m) => {
+    try {
+      onFrame(JSON.parse(m.data));
+    } catch (e) {
+      console.warn("a frame the page could not read", e);
+    }
+  };
+  ws.onclose = () => {
+    const wait = RETRY_MS[Math.min(model.retries, RETRY_MS.length - 1)];
+    model.retries += 1;
+    setConnection("down", `disconnected, retrying in ${(wait / 1000).toFixed(1)} s…`);
+    setTimeout(connect, wait);
+  };
+}
+
+/// Asks where the chosen robot meets the ball.
+async function askIntercept() {
+  const id = model.selected;
+  const v = model.view;
+  // Only when there is something to answer: no 404s for a ball not seen or a robot gone.
+  if (!id || !v || !v.ball || !v.robots.some((r) => r.robot_id === id && r.pose)) return;
+  try {
+    const r = await fetch(`/api/intercept?robot=${encodeURIComponent(id)}`);
+    const body = await r.json();
+    if (model.selected !== id) return;
+    if (r.ok) {
+      model.interceptReply = body;
+      model.interceptError = null;
+    } else {
+      model.interceptReply = null;
+      model.interceptError = body.error || `HTTP ${r.status}`;
+    }
+  } catch (e) {
+    model.interceptError = e.message;
+  }
+}
+
+function robotAt(px, py) {
+  let best = null;
+  for (const [id, r] of Object.entries(drawn.robots)) {
+    const d = Math.hypot(px - r.px, py - r.py);
+    if (d <= Math.max(14, r.radius_px + 6) && (!best || d < best.d)) best = { id, d };
+  }
+  return best && best.id;
+}
+
+el("pitch").addEventListener("click", (e) => {
+  const box = e.currentTarget.getBoundingClientRect();
+  const id = robotAt(e.clientX - box.left, e.clientY - box.top);
+  model.selected = id;
+  model.interceptReply = null;
+  model.interceptError = null;
+  if (id) askIntercept();
+});
+setInterval(askIntercept, INTERCEPT_EVERY_MS);
+
+function frame(now) {
+  const stale = showConnection(now) === "stale";
+  drawn = pitch.draw({
+    view: model.view,
+    robotIds: model.robotIds,
+    trail: model.trail,
+    selected: model.selected,
+    intercept: model.selected ? model.interceptReply : null,
+    stale,
+  });
+  drawTimes.push(now);
+  while (drawTimes.length && now - drawTimes[0] > 2000) drawTimes.shift();
+  if (now - lastPanel > PANEL_EVERY_MS && model.view) {
+    lastPanel = now;
+    const v = model.view;
+    showBall(v.ball);
+    showRobots(v.robots, model.robotIds);
+    showRejected(v.rejected);
+    showServer({ frames_per_s: rate(model.arrivals), draw_fps: rate(drawTimes), observations: (v.observations || []).length });
+    showIntercept(model.selected && { robot_id: model.selected, reply: model.interceptReply, error: model.interceptError });
+    const t = v.stamp / NS;
+    speedChart.draw(model.history.map((h) => ({ t_s: h.t_s, v: h.speed })), t);
+    ellipseChart.draw(model.history.map((h) => ({ t_s: h.t_s, v: h.ellipse_cm })), t);
+  }
+  requestAnimationFrame(frame);
+}
+
+/// Events per second over the times kept (the last 2 s).
+function rate(times) {
+  if (times.length < 2) return 0;
+  return (times.length - 1) / ((times[times.length - 1] - times[0]) / 1000);
+}
+
+Object.defineProperty(window, "__teamBall", {
+  enumerable: true,
+  get() {
+    const v = model.view;
+    return structuredClone({
+      connection: el("conn").dataset.state,
+      frames: model.frames,
+      stamp: v ? v.stamp : null,
+      ball: drawn.ball,
+      robots: drawn.robots,
+      ellipses: drawn.ellipses,
+      rejected: drawn.rejected,
+      selected: model.selected,
+      intercept: drawn.intercept,
+      interceptError: model.interceptError,
+      replay: v ? v.replay || null : null,
+      replayClock: el("replay-clock").textContent,
+      trail: model.trail.length,
+      history: model.history.length,
+      drawFps: rate(drawTimes),
+      framesPerS: rate(model.arrivals),
+      canvas: { width_px: pitch.cssW, height_px: pitch.cssH },
+    });
+  },
+});
+
+connect();
+requestAnimationFrame(frame);
