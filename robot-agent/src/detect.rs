@@ -62,7 +62,7 @@ pub struct DetectorConfig {
     /// as the wider window reaches).
     pub seeded_reach_px: u32,
     /// A blob whose larger side is at most this many pixels (a far ball) is proposed as
-    /// its own circle, without the Hough transform.
+    /// its own circle when the Hough transform finds none in it.
     pub small_blob_max_px: u32,
     /// A roundish blob in which the Hough transform found no circle is proposed as its
     /// own circle ([`crate::blob_circle`]).
@@ -386,7 +386,8 @@ impl Detector {
             let b = &blob.bbox;
             let size = blob_size_px(blob);
             let small = size <= cfg.small_blob_max_px;
-            // A blob Hough may miss, as its own circle (in frame pixels).
+            // A blob Hough may miss, as its own circle (in frame pixels), proposed when the
+            // Hough transform finds nothing in it.
             let own = (small
                 || (cfg.blob_fallback
                     && is_roundish(blob, FALLBACK_MAX_ASPECT, FALLBACK_MIN_FILL)))
@@ -408,28 +409,25 @@ impl Detector {
                         radius_px: c.radius_px / view.scale(),
                         ..c
                     };
-                    let mut circles = Vec::new();
-                    if !small {
-                        let patterned = match (hull, &self.white_lut) {
-                            (Some(hull), Some(lut)) => Some((
-                                view.sample_lut(image, lut)?,
-                                Hull {
-                                    centre_px: [centre, centre],
-                                    radius_px: hull.radius_px / view.scale(),
-                                },
-                            )),
-                            _ => None,
-                        };
-                        circles = self.circles(view.sample_mask(&mask)?, patterned)?;
-                    }
+                    let patterned = match (hull, &self.white_lut) {
+                        (Some(hull), Some(lut)) => Some((
+                            view.sample_lut(image, lut)?,
+                            Hull {
+                                centre_px: [centre, centre],
+                                radius_px: hull.radius_px / view.scale(),
+                            },
+                        )),
+                        _ => None,
+                    };
+                    let mut circles = self.circles(view.sample_mask(&mask)?, patterned)?;
                     if circles.is_empty() {
                         circles.extend(own.map(in_view));
                     }
                     found.push((Some(view), circles, hull.is_some()));
                 }
                 None => {
-                    let mut circles = Vec::new();
-                    if !small {
+                    let mut circles: Vec<Circle>;
+                    {
                         let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
                         let x0 = b.x_min.saturating_sub(m);
                         let y0 = b.y_min.saturating_sub(m);

@@ -5,7 +5,6 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::camera::{Distortion, Intrinsics};
 
 /// A green carpet with a faint texture.
 fn carpet(w: u32, h: u32) -> RgbImage {
@@ -37,23 +36,7 @@ fn orange(t: f64) -> [u8; 3] {
 }
 
 fn pinhole(w: u32, h: u32, f: f64) -> CameraModel {
-    CameraModel {
-        intrinsics: Intrinsics {
-            fx_px: f,
-            fy_px: f,
-            cx_px: f64::from(w - 1) / 2.0,
-            cy_px: f64::from(h - 1) / 2.0,
-            width_px: w,
-            height_px: h,
-        },
-        distortion: Distortion::BrownConrady {
-            k1: 0.0,
-            k2: 0.0,
-            p1: 0.0,
-            p2: 0.0,
-            k3: 0.0,
-        },
-    }
+    CameraModel::pinhole(f, f, f64::from(w - 1) / 2.0, f64::from(h - 1) / 2.0, w, h)
 }
 
 /// The proposal nearest `centre`, as (centre distance, radius).

@@ -8,7 +8,7 @@
 //! `classes.txt` or `data.yaml` names list in the label folder or the folder above it.
 
 use anyhow::{Context, Result, bail};
-use robot_agent::camera::{CameraModel, Distortion, Intrinsics};
+use robot_agent::camera::CameraModel;
 use robot_agent::image::RgbImage;
 use robot_agent::labels::{BallNames, ImageLabels};
 use robot_agent::yolo::{BallClassIds, parse_classes_txt, parse_data_yaml_names};
@@ -88,23 +88,9 @@ impl CameraChoice {
         let (w, h) = (image.width(), image.height());
         match *self {
             CameraChoice::None => Ok(None),
-            CameraChoice::Pinhole { fx, fy, cx, cy } => Ok(Some(CameraModel {
-                intrinsics: Intrinsics {
-                    fx_px: fx,
-                    fy_px: fy,
-                    cx_px: cx,
-                    cy_px: cy,
-                    width_px: w,
-                    height_px: h,
-                },
-                distortion: Distortion::BrownConrady {
-                    k1: 0.0,
-                    k2: 0.0,
-                    p1: 0.0,
-                    p2: 0.0,
-                    k3: 0.0,
-                },
-            })),
+            CameraChoice::Pinhole { fx, fy, cx, cy } => {
+                Ok(Some(CameraModel::pinhole(fx, fy, cx, cy, w, h)))
+            }
             CameraChoice::Calibrated(m) => {
                 let i = &m.intrinsics;
                 if (i.width_px, i.height_px) != (w, h) {
