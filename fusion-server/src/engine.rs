@@ -30,6 +30,8 @@ pub enum Rejection {
     Core(&'static str),
     #[error("robot {0:?} would be more than {MAX_ROBOTS} robots")]
     TooManyRobots(String),
+    #[error("the key's robot chunk {0:?} is not a valid robot id")]
+    BadKey(String),
 }
 
 /// Distinct robots the server keeps track of (without a roster, a flood of made-up ids
@@ -48,6 +50,7 @@ impl Rejection {
             Rejection::KeyMismatch { .. } => "key_mismatch",
             Rejection::Core(r) => r,
             Rejection::TooManyRobots(_) => "too_many_robots",
+            Rejection::BadKey(_) => "key_robot_id",
         }
     }
 }
@@ -196,7 +199,14 @@ impl Engine {
         }
     }
 
+    /// `key_robot` is the key's robot chunk as it came (`None` only for callers without a
+    /// key, such as a replay): a chunk that is not a valid id is refused, never skipped.
     fn check_robot(&self, key_robot: Option<&str>, robot_id: &str) -> Result<(), Rejection> {
+        if let Some(key) = key_robot
+            && !proto::is_valid_id(key)
+        {
+            return Err(Rejection::BadKey(key.to_string()));
+        }
         if let Some(key) = key_robot
             && key != robot_id
         {

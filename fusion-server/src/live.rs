@@ -212,10 +212,16 @@ impl Live {
         }
     }
 
+    /// The robot chunk of a robot's key as it came (the whole key when it is not under
+    /// `{prefix}/robots/`, which the engine then refuses as not an id).
+    fn key_robot<'k>(&self, key: &'k str) -> Option<&'k str> {
+        Some(self.keys.robot_chunk_of(key).unwrap_or(key))
+    }
+
     /// An observation payload arrived on `key`.
     pub fn on_observation(&self, key: &str, payload: &[u8]) {
         self.stats.inputs_received.fetch_add(1, Relaxed);
-        let robot = self.keys.robot_id_of(key);
+        let robot = self.key_robot(key);
         let mut inner = self.lock();
         let now = self.clock.now();
         let result = inner.engine.observation(robot, payload, now);
@@ -241,7 +247,7 @@ impl Live {
     /// A status payload arrived on `key`.
     pub fn on_status(&self, key: &str, payload: &[u8]) {
         self.stats.inputs_received.fetch_add(1, Relaxed);
-        let robot = self.keys.robot_id_of(key);
+        let robot = self.key_robot(key);
         let mut inner = self.lock();
         let now = self.clock.now();
         let result = inner.engine.status(robot, payload, now);
@@ -257,9 +263,8 @@ impl Live {
 
     /// A robot liveliness token under `key` appeared or went away.
     pub fn on_liveliness(&self, key: &str, alive: bool) {
-        let Some(robot) = self.keys.robot_id_of(key) else {
-            return;
-        };
+        // A chunk that is not an id is refused and counted by the engine.
+        let robot = self.keys.robot_chunk_of(key).unwrap_or(key);
         let now = self.clock.now();
         let result = self.lock().engine.liveliness(robot, alive, now);
         match result {

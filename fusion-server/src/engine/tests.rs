@@ -81,6 +81,7 @@ fn every_kind_of_bad_input_is_counted_and_good_input_keeps_flowing() {
         (proto::encode(&absurd), "miro1", "stamp"),
         (proto::encode(&stranger), "miro9", "unknown_robot"),
         (proto::encode(&good), "miro2", "key_mismatch"),
+        (proto::encode(&good), "not.an.id", "key_robot_id"),
     ];
     for (payload, key, reason) in &cases {
         let r = e.observation(Some(key), payload, now);
