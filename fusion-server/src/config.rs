@@ -61,6 +61,37 @@ pub struct FusionFile {
     pub learn_restitution: Option<bool>,
 }
 
+/// `[limits]`: the bounds that keep made-up or oversized input from hurting the server.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LimitsFile {
+    /// Largest observation payload, bytes.
+    pub max_observation_bytes: Option<usize>,
+    /// Largest status payload, bytes.
+    pub max_status_bytes: Option<usize>,
+}
+
+impl LimitsFile {
+    pub fn apply(&self, engine: &mut crate::engine::EngineConfig) -> Result<(), ConfigError> {
+        let bytes = |name: &str, v: usize| {
+            if (256..=16 << 20).contains(&v) {
+                Ok(v)
+            } else {
+                Err(ConfigError::Invalid(format!(
+                    "limits.{name} must be in 256..=16777216 bytes, got {v}"
+                )))
+            }
+        };
+        if let Some(v) = self.max_observation_bytes {
+            engine.max_observation_bytes = bytes("max_observation_bytes", v)?;
+        }
+        if let Some(v) = self.max_status_bytes {
+            engine.max_status_bytes = bytes("max_status_bytes", v)?;
+        }
+        Ok(())
+    }
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FileConfig {
@@ -79,6 +110,7 @@ pub struct FileConfig {
     pub pitch: Option<Pitch>,
     pub fusion: FusionFile,
     pub record: RecordFile,
+    pub limits: LimitsFile,
 }
 
 impl FileConfig {
@@ -144,6 +176,7 @@ impl FileConfig {
             check_pitch(p)?;
             cfg.engine.fusion.set_pitch(p.clone());
         }
+        self.limits.apply(&mut cfg.engine)?;
         self.fusion.apply(&mut cfg.engine.fusion)
     }
 }
@@ -332,6 +365,7 @@ max_mb = 200
             "[fusion]\ndecel_sigma_mps2 = -0.1",
             "[fusion]\nrestitution_sigma = nan",
             "[fusion]\nlate_window_s = inf",
+            "[limits]\nmax_observation_bytes = 10",
         ] {
             let f = FileConfig::parse(bad, p).expect(bad);
             assert!(

@@ -32,6 +32,8 @@ pub enum Rejection {
     TooManyRobots(String),
     #[error("the key's robot chunk {0:?} is not a valid robot id")]
     BadKey(String),
+    #[error("payload of {bytes} bytes exceeds the limit of {limit} bytes")]
+    TooLarge { bytes: usize, limit: usize },
 }
 
 /// Distinct robots the server keeps track of (without a roster, a flood of made-up ids
@@ -51,6 +53,7 @@ impl Rejection {
             Rejection::Core(r) => r,
             Rejection::TooManyRobots(_) => "too_many_robots",
             Rejection::BadKey(_) => "key_robot_id",
+            Rejection::TooLarge { .. } => "too_large",
         }
     }
 }
@@ -66,7 +69,17 @@ pub struct EngineConfig {
     pub max_clock_skew_s: f64,
     /// Largest accepted distance of a reported position outside the pitch.
     pub max_outside_m: f64,
+    /// Largest observation payload, checked before it is parsed.
+    pub max_observation_bytes: usize,
+    /// Largest status payload, checked before it is parsed.
+    pub max_status_bytes: usize,
 }
+
+/// Default cap on an observation's payload (a real one is about 400 bytes).
+pub const DEFAULT_MAX_OBSERVATION_BYTES: usize = 4096;
+/// Default cap on a status payload (a real one, with two footprints, is a few kilobytes;
+/// the largest status [`proto::Validate`] accepts fits).
+pub const DEFAULT_MAX_STATUS_BYTES: usize = 64 * 1024;
 
 impl Default for EngineConfig {
     fn default() -> Self {
@@ -76,6 +89,8 @@ impl Default for EngineConfig {
             robot_speed_mps: 0.4,
             max_clock_skew_s: 10.0,
             max_outside_m: 1.0,
+            max_observation_bytes: DEFAULT_MAX_OBSERVATION_BYTES,
+            max_status_bytes: DEFAULT_MAX_STATUS_BYTES,
         }
     }
 }
@@ -244,6 +259,13 @@ impl Engine {
         payload: &[u8],
         received: Stamp,
     ) -> Result<(Observation, Ingest), Rejection> {
+        if payload.len() > self.cfg.max_observation_bytes {
+            let e = Rejection::TooLarge {
+                bytes: payload.len(),
+                limit: self.cfg.max_observation_bytes,
+            };
+            return Err(self.reject("observation", key_robot, e));
+        }
         let obs: Observation = match proto::decode(payload) {
             Ok(o) => o,
             Err(e) => return Err(self.reject("observation", key_robot, e.into())),
@@ -298,6 +320,13 @@ impl Engine {
         payload: &[u8],
         received: Stamp,
     ) -> Result<RobotStatus, Rejection> {
+        if payload.len() > self.cfg.max_status_bytes {
+            let e = Rejection::TooLarge {
+                bytes: payload.len(),
+                limit: self.cfg.max_status_bytes,
+            };
+            return Err(self.reject("status", key_robot, e));
+        }
         let status: RobotStatus = match proto::decode(payload) {
             Ok(s) => s,
             Err(e) => return Err(self.reject("status", key_robot, e.into())),
@@ -377,6 +406,11 @@ impl Engine {
     /// rejected (with the reason), oldest first.
     pub fn recent_observations(&self, now: Stamp, window_s: f64) -> Vec<RecentObs> {
         self.recent.within(now, window_s)
+    }
+
+    /// Counts a rejection decided outside the engine (an oversized query).
+    pub fn count_rejection(&mut self, kind: &'static str, reason: &'static str) {
+        *self.counters.rejected.entry((kind, reason)).or_default() += 1;
     }
 
     /// Rejected inputs so far, by `kind/reason` (as the metrics label them).

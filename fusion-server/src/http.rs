@@ -89,13 +89,29 @@ fn answer(live: &Live, q: Result<BallQuery, QueryError>) -> Response {
     }
 }
 
-type Params = Query<Vec<(String, String)>>;
+/// The query's `name=value` pairs, its size checked before it is parsed (an oversized one
+/// is counted as a rejected `query`, reason `too_large`).
+fn params(live: &Live, uri: &Uri) -> Result<Vec<(String, String)>, (StatusCode, String)> {
+    let raw = uri.query().unwrap_or_default();
+    if let Err(e) = query::check_size(raw) {
+        live.count_rejection("query", "too_large");
+        return Err((StatusCode::URI_TOO_LONG, e.to_string()));
+    }
+    match Query::<Vec<(String, String)>>::try_from_uri(uri) {
+        Ok(Query(p)) => Ok(p),
+        Err(e) => Err((StatusCode::BAD_REQUEST, e.body_text())),
+    }
+}
 
 fn pairs(p: &[(String, String)]) -> impl Iterator<Item = (&str, &str)> {
     p.iter().map(|(k, v)| (k.as_str(), v.as_str()))
 }
 
-async fn predict(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
+async fn predict(State(live): State<Arc<Live>>, uri: Uri) -> Response {
+    let p = match params(&live, &uri) {
+        Ok(p) => p,
+        Err((status, why)) => return error(status, why),
+    };
     let q = query::parse(pairs(&p)).and_then(|q| match q {
         BallQuery::Predict { .. } => Ok(q),
         BallQuery::Intercept { .. } => Err(QueryError::Unknown("robot".into())),
@@ -103,7 +119,11 @@ async fn predict(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
     answer(&live, q)
 }
 
-async fn intercept(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
+async fn intercept(State(live): State<Arc<Live>>, uri: Uri) -> Response {
+    let p = match params(&live, &uri) {
+        Ok(p) => p,
+        Err((status, why)) => return error(status, why),
+    };
     let q = query::parse(pairs(&p)).and_then(|q| match q {
         BallQuery::Intercept { .. } => Ok(q),
         BallQuery::Predict { .. } => Err(QueryError::Unknown("t".into())),

@@ -48,6 +48,10 @@ pub trait MatchLog: Send + Sync + Debug {
     fn log(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]);
     /// Records written and records dropped so far.
     fn counts(&self) -> (u64, u64);
+    /// Payload bytes waiting to be written.
+    fn queued_bytes(&self) -> u64 {
+        0
+    }
 }
 
 /// The body of `GET /api/state` and of each live-stream frame.
@@ -218,6 +222,22 @@ impl Live {
         Some(self.keys.robot_chunk_of(key).unwrap_or(key))
     }
 
+    /// Hands an accepted input to the match log. A rejected one is only counted: whoever
+    /// sends junk must not be able to fill the disk with it.
+    fn record(&self, kind: LogKind, key: &str, now: Stamp, payload: &[u8], accepted: bool) {
+        let Some(log) = &self.log else { return };
+        if accepted {
+            log.log(kind, key, now, payload);
+        } else {
+            self.stats.record_skipped_rejected.fetch_add(1, Relaxed);
+        }
+    }
+
+    /// Counts a rejection decided in the shell (an oversized query), with the engine's.
+    pub fn count_rejection(&self, kind: &'static str, reason: &'static str) {
+        self.lock().engine.count_rejection(kind, reason);
+    }
+
     /// An observation payload arrived on `key`.
     pub fn on_observation(&self, key: &str, payload: &[u8]) {
         self.stats.inputs_received.fetch_add(1, Relaxed);
@@ -225,10 +245,7 @@ impl Live {
         let mut inner = self.lock();
         let now = self.clock.now();
         let result = inner.engine.observation(robot, payload, now);
-        let decoded = !matches!(result, Err(crate::engine::Rejection::Decode(_)));
-        if decoded && let Some(log) = &self.log {
-            log.log(LogKind::Observation, key, now, payload);
-        }
+        self.record(LogKind::Observation, key, now, payload, result.is_ok());
         match result {
             Ok(_) => {
                 inner.unpublished.push(now);
@@ -251,10 +268,7 @@ impl Live {
         let mut inner = self.lock();
         let now = self.clock.now();
         let result = inner.engine.status(robot, payload, now);
-        let decoded = !matches!(result, Err(crate::engine::Rejection::Decode(_)));
-        if decoded && let Some(log) = &self.log {
-            log.log(LogKind::Status, key, now, payload);
-        }
+        self.record(LogKind::Status, key, now, payload, result.is_ok());
         drop(inner);
         if let Err(e) = result {
             self.log_rejection("status", key, &e);
@@ -369,6 +383,9 @@ impl Live {
             let (written, dropped) = log.counts();
             self.stats.recorded.store(written, Relaxed);
             self.stats.record_dropped.store(dropped, Relaxed);
+            self.stats
+                .record_queue_bytes
+                .store(log.queued_bytes(), Relaxed);
         }
         let inner = self.lock();
         crate::metrics::render(&inner.engine, &self.stats, self.clock.now())

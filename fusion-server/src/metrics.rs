@@ -74,6 +74,10 @@ pub struct ShellStats {
     pub queries_failed: AtomicU64,
     pub recorded: AtomicU64,
     pub record_dropped: AtomicU64,
+    /// Payload bytes waiting in the match log's queue.
+    pub record_queue_bytes: AtomicU64,
+    /// Rejected inputs left out of the match log.
+    pub record_skipped_rejected: AtomicU64,
     /// Seconds from an observation's arrival to the publication of a state that includes it.
     pub obs_to_state_s: Mutex<Histogram>,
 }
@@ -104,7 +108,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let mut out = String::with_capacity(4096);
     let c = engine.counters();
     let core = engine.fusion().counters();
-    let simple: [(&str, &str, &str, u64); 14] = [
+    let simple: [(&str, &str, &str, u64); 16] = [
         (
             "rf_observations_accepted_total",
             "counter",
@@ -188,6 +192,18 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "counter",
             "Messages the match log could not keep up with.",
             shell.record_dropped.load(Relaxed),
+        ),
+        (
+            "rf_record_queue_bytes",
+            "gauge",
+            "Payload bytes waiting in the match log's queue (bounded; beyond it records are dropped).",
+            shell.record_queue_bytes.load(Relaxed),
+        ),
+        (
+            "rf_record_skipped_rejected_total",
+            "counter",
+            "Rejected inputs left out of the match log (they are counted by reason instead).",
+            shell.record_skipped_rejected.load(Relaxed),
         ),
     ];
     for (name, kind, help, v) in simple {

@@ -113,7 +113,11 @@ pub async fn serve(
     let _queryable = session
         .declare_queryable(keys.ball_predict())
         .callback(move |q| {
-            let parsed = query::parse(q.parameters().iter());
+            let sized = query::check_size(q.parameters().as_str());
+            if sized.is_err() {
+                l.count_rejection("query", "too_large");
+            }
+            let parsed = sized.and_then(|()| query::parse(q.parameters().iter()));
             let result = parsed.and_then(|p| l.query(&p));
             let sent = match result {
                 Ok(reply) => q.reply(q.key_expr().clone(), reply.to_json()).wait(),

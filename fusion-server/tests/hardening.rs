@@ -6,8 +6,11 @@
 #[path = "hardening/server.rs"]
 mod server;
 
+use fusion_server::matchlog::McapLog;
+use fusion_server::record::RecorderConfig;
 use fusion_server::serve::ServeConfig;
-use server::{TestServer, eventually, now, obs};
+use server::{TestServer, eventually, now, obs, z};
+use std::sync::Arc;
 
 /// A key whose robot chunk is not an id is refused, never taken for the payload's robot.
 #[tokio::test(flavor = "multi_thread")]
@@ -28,4 +31,105 @@ async fn a_key_that_is_not_a_robot_id_is_refused() -> anyhow::Result<()> {
         .with_engine(|e| e.robots(now()).into_iter().map(|r| r.robot_id).collect());
     assert_eq!(ids, ["miro1"]);
     s.stop().await
+}
+
+fn status(robot: &str) -> proto::RobotStatus {
+    proto::RobotStatus {
+        version: proto::VERSION,
+        robot_id: robot.into(),
+        stamp: now(),
+        pose: proto::Pose2::default(),
+        pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-3],
+        head: proto::HeadJoints::default(),
+        fps: 15.0,
+        timings: vec![],
+        footprints: vec![],
+    }
+}
+
+/// Oversized payloads are refused before they are parsed, over-long lists in a status are
+/// refused by validation, oversized queries are refused on both faces; each is counted by
+/// reason, and none of the refused inputs reaches the match log.
+#[tokio::test(flavor = "multi_thread")]
+async fn oversized_inputs_are_refused_counted_and_not_recorded() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let log = Arc::new(McapLog::start(RecorderConfig::new(dir.path()), now())?);
+    let as_log: Arc<dyn fusion_server::live::MatchLog> = log.clone();
+    let s = TestServer::start_logged("h-size", ServeConfig::default(), Some(as_log)).await?;
+    s.until_accepted("miro1").await?;
+
+    // A valid observation padded with whitespace past the cap (the attack used 10 MB).
+    let mut padded = proto::encode(&obs("miro1", 5000, now(), 0.5));
+    padded.extend(std::iter::repeat_n(b' ', 8 * 1024));
+    s.put("rf/robots/miro1/obs", padded).await?;
+    let mut huge = status("miro1");
+    huge.timings = (0..5000)
+        .map(|k| proto::StageTiming {
+            stage: format!("stage{k}"),
+            ms: 1.0,
+        })
+        .collect();
+    s.put("rf/robots/miro1/status", proto::encode(&huge))
+        .await?;
+    let mut many = status("miro1");
+    many.timings = vec![
+        proto::StageTiming {
+            stage: "s".into(),
+            ms: 1.0,
+        };
+        proto::MAX_STATUS_TIMINGS + 1
+    ];
+    s.put("rf/robots/miro1/status", proto::encode(&many))
+        .await?;
+    let mut long_name = status("miro1");
+    long_name.timings = vec![proto::StageTiming {
+        stage: "x".repeat(1000),
+        ms: 1.0,
+    }];
+    s.put("rf/robots/miro1/status", proto::encode(&long_name))
+        .await?;
+    eventually("the oversized inputs counted", || {
+        (s.rejected("observation", "too_large") == 1
+            && s.rejected("status", "too_large") == 1
+            && s.rejected("status", "too_many") == 1
+            && s.rejected("status", "too_long") == 1)
+            .then_some(())
+    })
+    .await;
+
+    // Queries: an over-long parameter text, over HTTP and over Zenoh.
+    let long = "x".repeat(fusion_server::query::MAX_QUERY_BYTES);
+    let (code, body) = s.get(&format!("/api/predict?t=1&pad={long}")).await?;
+    assert_eq!(code, 414, "{body}");
+    let replies = s
+        .client
+        .get(format!("rf/ball/predict?t=1;pad={long}"))
+        .await
+        .map_err(z)?;
+    let reply = replies.recv_async().await.map_err(z)?;
+    let err = reply.result().expect_err("an error reply");
+    let err = String::from_utf8_lossy(&err.payload().to_bytes()).into_owned();
+    assert!(err.contains("bytes long"), "{err}");
+    assert_eq!(s.rejected("query", "too_large"), 2);
+    let (code, body) = s.get("/api/predict?t=1").await?;
+    assert!(
+        matches!(code, 200 | 404),
+        "a normal query is answered: {code} {body}"
+    );
+
+    let skipped = s.metric("rf_record_skipped_rejected_total").unwrap_or(0.0);
+    assert!(skipped >= 4.0, "{skipped}");
+    s.stop().await?;
+    let summary = log.finish()?.expect("a summary");
+    let read = fusion_server::mcap_read::read_logs(&summary.files)?;
+    let inputs: Vec<_> = read
+        .messages
+        .iter()
+        .filter(|m| m.topic.starts_with("rf/robots/"))
+        .collect();
+    assert!(!inputs.is_empty());
+    for m in inputs {
+        assert!(m.data.len() < 4096, "{} bytes on {}", m.data.len(), m.topic);
+    }
+    Ok(())
 }

@@ -60,13 +60,22 @@ impl TestServer {
     /// Starts a server with `cfg` (its id, Zenoh endpoint and HTTP address are set here)
     /// and connects a client session to it.
     pub async fn start(id: &str, cfg: ServeConfig) -> anyhow::Result<TestServer> {
+        Self::start_logged(id, cfg, None).await
+    }
+
+    /// [`TestServer::start`] with a match log.
+    pub async fn start_logged(
+        id: &str,
+        cfg: ServeConfig,
+        log: Option<Arc<dyn fusion_server::live::MatchLog>>,
+    ) -> anyhow::Result<TestServer> {
         let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
         let cfg = ServeConfig {
             server_id: id.into(),
             net: NetConfig::listening(&endpoint),
             ..cfg
         };
-        let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+        let live = serve::shared(&cfg, Arc::new(SystemClock), log)?;
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
         let http = listener.local_addr()?;
         let (stop, mut stop_rx) = tokio::sync::watch::channel(false);
@@ -135,6 +144,24 @@ impl TestServer {
             .metrics_text()
             .lines()
             .find_map(|l| l.strip_prefix(&prefix).and_then(|v| v.parse().ok()))
+    }
+
+    /// A GET over a fresh connection: the status code and the body.
+    pub async fn get(&self, path: &str) -> anyhow::Result<(u16, String)> {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let mut c = tokio::net::TcpStream::connect(self.http).await?;
+        let req = format!("GET {path} HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n");
+        c.write_all(req.as_bytes()).await?;
+        let mut out = Vec::new();
+        tokio::time::timeout(Duration::from_secs(10), c.read_to_end(&mut out)).await??;
+        let text = String::from_utf8_lossy(&out).into_owned();
+        let code = text
+            .split(' ')
+            .nth(1)
+            .and_then(|c| c.parse().ok())
+            .unwrap_or(0);
+        let body = text.split_once("\r\n\r\n").map(|(_, b)| b.to_string());
+        Ok((code, body.unwrap_or_default()))
     }
 
     pub async fn stop(self) -> anyhow::Result<()> {
