@@ -69,6 +69,12 @@ pub struct LimitsFile {
     pub max_observation_bytes: Option<usize>,
     /// Largest status payload, bytes.
     pub max_status_bytes: Option<usize>,
+    /// Messages a robot may send per second on average.
+    pub rate_limit_hz: Option<f64>,
+    /// Messages a robot may send at once above the average.
+    pub rate_burst: Option<f64>,
+    /// Seconds a robot may stay quiet before the server forgets it.
+    pub robot_expiry_s: Option<f64>,
 }
 
 impl LimitsFile {
@@ -87,6 +93,16 @@ impl LimitsFile {
         }
         if let Some(v) = self.max_status_bytes {
             engine.max_status_bytes = bytes("max_status_bytes", v)?;
+        }
+        let a = &mut engine.admission;
+        if let Some(v) = self.rate_limit_hz {
+            a.rate_limit_hz = positive("limits.rate_limit_hz", v)?;
+        }
+        if let Some(v) = self.rate_burst {
+            a.rate_burst = positive("limits.rate_burst", v)?.max(1.0);
+        }
+        if let Some(v) = self.robot_expiry_s {
+            a.robot_expiry_s = positive("limits.robot_expiry_s", v)?;
         }
         Ok(())
     }
@@ -366,6 +382,8 @@ max_mb = 200
             "[fusion]\nrestitution_sigma = nan",
             "[fusion]\nlate_window_s = inf",
             "[limits]\nmax_observation_bytes = 10",
+            "[limits]\nrate_limit_hz = 0",
+            "[limits]\nrobot_expiry_s = -1",
         ] {
             let f = FileConfig::parse(bad, p).expect(bad);
             assert!(

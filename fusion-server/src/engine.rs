@@ -12,7 +12,9 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use thiserror::Error;
 
+mod admission;
 mod recent;
+pub use admission::{AdmissionConfig, SWEEP_EVERY_S, TokenBucket};
 pub use recent::{RECENT_OBS_MAX, RecentObs, RecentObservations};
 
 /// Why an inbound message was not used.
@@ -34,10 +36,12 @@ pub enum Rejection {
     BadKey(String),
     #[error("payload of {bytes} bytes exceeds the limit of {limit} bytes")]
     TooLarge { bytes: usize, limit: usize },
+    #[error("robot {0:?} sends faster than its rate limit")]
+    RateLimited(String),
 }
 
 /// Distinct robots the server keeps track of (without a roster, a flood of made-up ids
-/// must not grow its state).
+/// must not grow its state; robots gone quiet are forgotten, see [`AdmissionConfig`]).
 pub const MAX_ROBOTS: usize = 256;
 
 impl Rejection {
@@ -54,6 +58,7 @@ impl Rejection {
             Rejection::TooManyRobots(_) => "too_many_robots",
             Rejection::BadKey(_) => "key_robot_id",
             Rejection::TooLarge { .. } => "too_large",
+            Rejection::RateLimited(_) => "rate_limited",
         }
     }
 }
@@ -73,6 +78,8 @@ pub struct EngineConfig {
     pub max_observation_bytes: usize,
     /// Largest status payload, checked before it is parsed.
     pub max_status_bytes: usize,
+    /// Per-robot rate limit and the expiry of robots gone quiet.
+    pub admission: AdmissionConfig,
 }
 
 /// Default cap on an observation's payload (a real one is about 400 bytes).
@@ -91,6 +98,7 @@ impl Default for EngineConfig {
             max_outside_m: 1.0,
             max_observation_bytes: DEFAULT_MAX_OBSERVATION_BYTES,
             max_status_bytes: DEFAULT_MAX_STATUS_BYTES,
+            admission: AdmissionConfig::default(),
         }
     }
 }
@@ -117,8 +125,11 @@ impl Rate {
     }
 }
 
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 struct RobotEntry {
+    /// Last accepted message or liveliness change (receiver clock): what expiry looks at.
+    last_heard: Stamp,
+    bucket: TokenBucket,
     online: bool,
     /// When `online` last changed (receiver clock).
     since: Option<Stamp>,
@@ -130,6 +141,24 @@ struct RobotEntry {
     rate: Rate,
     /// Arrival minus capture of its accepted observations, exponentially averaged.
     latency_s: Option<f64>,
+}
+
+impl RobotEntry {
+    fn new(now: Stamp, burst: f64) -> Self {
+        RobotEntry {
+            last_heard: now,
+            bucket: TokenBucket::full(burst),
+            online: false,
+            since: None,
+            status: None,
+            status_received: None,
+            last_obs_received: None,
+            accepted: 0,
+            rejected: 0,
+            rate: Rate::default(),
+            latency_s: None,
+        }
+    }
 }
 
 /// Weight of the newest observation in a robot's average latency.
@@ -176,6 +205,8 @@ pub struct Engine {
     robots: BTreeMap<String, RobotEntry>,
     counters: EngineCounters,
     recent: RecentObservations,
+    /// When the table was last swept for robots gone quiet.
+    swept: Option<Stamp>,
 }
 
 impl Engine {
@@ -186,6 +217,7 @@ impl Engine {
             robots: BTreeMap::new(),
             counters: EngineCounters::default(),
             recent: RecentObservations::default(),
+            swept: None,
         }
     }
 
@@ -232,10 +264,61 @@ impl Engine {
         }
         match &self.cfg.roster {
             Some(r) if !r.contains(robot_id) => Err(Rejection::UnknownRobot(robot_id.into())),
-            _ if self.robots.len() >= MAX_ROBOTS && !self.robots.contains_key(robot_id) => {
-                Err(Rejection::TooManyRobots(robot_id.into()))
-            }
             _ => Ok(()),
+        }
+    }
+
+    /// Room for `robot_id` in the table at `now` (robots gone quiet are forgotten to make it).
+    fn make_room(&mut self, robot_id: &str, now: Stamp) -> Result<(), Rejection> {
+        if !self.robots.contains_key(robot_id) && self.robots.len() >= MAX_ROBOTS {
+            let expiry_s = self.cfg.admission.robot_expiry_s;
+            self.robots
+                .retain(|_, r| now.secs_since(r.last_heard) <= expiry_s);
+            if self.robots.len() >= MAX_ROBOTS {
+                return Err(Rejection::TooManyRobots(robot_id.into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// The entry of `robot_id` (made if new), heard of at `now`; call [`Self::make_room`] first.
+    fn entry_at(&mut self, robot_id: &str, now: Stamp) -> &mut RobotEntry {
+        let burst = self.cfg.admission.rate_burst;
+        let entry = self
+            .robots
+            .entry(robot_id.to_string())
+            .or_insert_with(|| RobotEntry::new(now, burst));
+        entry.last_heard = entry.last_heard.max(now);
+        entry
+    }
+
+    /// Forgets robots whose token is gone and that were not heard of for the expiry time
+    /// (at most once a [`SWEEP_EVERY_S`]).
+    fn sweep(&mut self, now: Stamp) {
+        if self
+            .swept
+            .is_some_and(|s| now.secs_since(s) < SWEEP_EVERY_S)
+        {
+            return;
+        }
+        self.swept = Some(now);
+        let expiry_s = self.cfg.admission.robot_expiry_s;
+        self.robots
+            .retain(|_, r| r.online || now.secs_since(r.last_heard) <= expiry_s);
+    }
+
+    /// Takes a token from the bucket of a robot already known by the key's id; unknown
+    /// robots are judged once they are admitted.
+    fn check_rate(&mut self, key_robot: Option<&str>, now: Stamp) -> Result<(), Rejection> {
+        let a = &self.cfg.admission;
+        let (rate_hz, burst) = (a.rate_limit_hz, a.rate_burst);
+        let Some((id, r)) = key_robot.and_then(|k| self.robots.get_mut(k).map(|r| (k, r))) else {
+            return Ok(());
+        };
+        if r.bucket.take(now, rate_hz, burst) {
+            Ok(())
+        } else {
+            Err(Rejection::RateLimited(id.to_string()))
         }
     }
 
@@ -266,6 +349,10 @@ impl Engine {
             };
             return Err(self.reject("observation", key_robot, e));
         }
+        self.sweep(received);
+        if let Err(e) = self.check_rate(key_robot, received) {
+            return Err(self.reject("observation", key_robot, e));
+        }
         let obs: Observation = match proto::decode(payload) {
             Ok(o) => o,
             Err(e) => return Err(self.reject("observation", key_robot, e.into())),
@@ -282,7 +369,8 @@ impl Engine {
     ) -> Result<(Observation, Ingest), Rejection> {
         let checked = self
             .check_robot(key_robot, &obs.robot_id)
-            .and_then(|()| Ok(obs.validate(&self.context(received))?));
+            .and_then(|()| Ok(obs.validate(&self.context(received))?))
+            .and_then(|()| self.make_room(&obs.robot_id, received));
         if let Err(e) = checked {
             self.recent.push(&obs, received, Some(e.reason()));
             return Err(self.reject("observation", Some(&obs.robot_id), e));
@@ -300,7 +388,7 @@ impl Engine {
             return Err(self.reject("observation", Some(&obs.robot_id), Rejection::Core(r)));
         }
         self.counters.observations_accepted += 1;
-        let entry = self.robots.entry(obs.robot_id.clone()).or_default();
+        let entry = self.entry_at(&obs.robot_id, received);
         entry.accepted += 1;
         entry.last_obs_received = Some(received);
         entry.rate.hit(received);
@@ -327,18 +415,23 @@ impl Engine {
             };
             return Err(self.reject("status", key_robot, e));
         }
+        self.sweep(received);
+        if let Err(e) = self.check_rate(key_robot, received) {
+            return Err(self.reject("status", key_robot, e));
+        }
         let status: RobotStatus = match proto::decode(payload) {
             Ok(s) => s,
             Err(e) => return Err(self.reject("status", key_robot, e.into())),
         };
         let checked = self
             .check_robot(key_robot, &status.robot_id)
-            .and_then(|()| Ok(status.validate(&self.context(received))?));
+            .and_then(|()| Ok(status.validate(&self.context(received))?))
+            .and_then(|()| self.make_room(&status.robot_id, received));
         if let Err(e) = checked {
             return Err(self.reject("status", Some(&status.robot_id), e));
         }
         self.counters.statuses_accepted += 1;
-        let entry = self.robots.entry(status.robot_id.clone()).or_default();
+        let entry = self.entry_at(&status.robot_id, received);
         entry.status = Some(status.clone());
         entry.status_received = Some(received);
         Ok(status)
@@ -350,9 +443,11 @@ impl Engine {
             let e = Rejection::Invalid(ValidationError::BadRobotId(robot_id.into()));
             return Err(self.reject("liveliness", None, e));
         }
+        self.sweep(at);
         self.check_robot(None, robot_id)
+            .and_then(|()| self.make_room(robot_id, at))
             .map_err(|e| self.reject("liveliness", None, e))?;
-        let entry = self.robots.entry(robot_id.to_string()).or_default();
+        let entry = self.entry_at(robot_id, at);
         if entry.online != alive || entry.since.is_none() {
             entry.online = alive;
             entry.since = Some(at);

@@ -133,3 +133,100 @@ async fn oversized_inputs_are_refused_counted_and_not_recorded() -> anyhow::Resu
     }
     Ok(())
 }
+
+fn with_admission(a: fusion_server::engine::AdmissionConfig) -> ServeConfig {
+    let mut cfg = ServeConfig::default();
+    cfg.engine.admission = a;
+    cfg
+}
+
+/// 256 made-up liveliness tokens fill the robot table; an honest robot arriving later is
+/// refused only until they have been quiet for the expiry time (1 s here).
+#[tokio::test(flavor = "multi_thread")]
+async fn made_up_tokens_hold_the_robot_table_only_until_they_expire() -> anyhow::Result<()> {
+    use fusion_server::engine::{AdmissionConfig, MAX_ROBOTS};
+    let s = TestServer::start(
+        "h-table",
+        with_admission(AdmissionConfig {
+            robot_expiry_s: 1.0,
+            ..AdmissionConfig::default()
+        }),
+    )
+    .await?;
+    let mut tokens = Vec::new();
+    for k in 0..MAX_ROBOTS {
+        let t = s
+            .client
+            .liveliness()
+            .declare_token(format!("rf/robots/fake{k}"))
+            .await
+            .map_err(z)?;
+        tokens.push(t);
+    }
+    eventually("the table full", || {
+        s.live
+            .with_engine(|e| (e.robots(now()).len() == MAX_ROBOTS).then_some(()))
+    })
+    .await;
+    // The honest robot gets in (after at most the expiry time), the tokens still held.
+    s.until_accepted("honest").await?;
+    assert!(s.rejected("observation", "too_many_robots") >= 1);
+    let known = s.live.with_engine(|e| e.robots(now()).len());
+    assert!(known < MAX_ROBOTS, "{known}");
+    drop(tokens);
+    s.stop().await
+}
+
+/// One robot flooding is held to its rate (counted as `rate_limited`); another robot's
+/// observations keep being accepted.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_flooding_robot_is_rate_limited() -> anyhow::Result<()> {
+    use fusion_server::engine::AdmissionConfig;
+    let s = TestServer::start(
+        "h-rate",
+        with_admission(AdmissionConfig {
+            rate_limit_hz: 50.0,
+            rate_burst: 20.0,
+            ..AdmissionConfig::default()
+        }),
+    )
+    .await?;
+    s.until_accepted("flood").await?;
+    s.until_accepted("honest").await?;
+    let t = now();
+    for seq in 0..500 {
+        s.put(
+            "rf/robots/flood/obs",
+            proto::encode(&obs("flood", 10_000 + seq, t, 0.5)),
+        )
+        .await?;
+    }
+    eventually("the flood counted", || {
+        (s.rejected("observation", "rate_limited") >= 300).then_some(())
+    })
+    .await;
+    let before = s.live.with_engine(|e| {
+        e.robots(now())
+            .iter()
+            .find(|r| r.robot_id == "honest")
+            .map_or(0, |r| r.observations_accepted)
+    });
+    for seq in 0..5 {
+        s.put(
+            "rf/robots/honest/obs",
+            proto::encode(&obs("honest", 10_000 + seq, now(), 0.5)),
+        )
+        .await?;
+        tokio::time::sleep(std::time::Duration::from_millis(30)).await;
+    }
+    eventually("the honest robot still accepted", || {
+        s.live.with_engine(|e| {
+            e.robots(now())
+                .iter()
+                .any(|r| r.robot_id == "honest" && r.observations_accepted >= before + 5)
+                .then_some(())
+        })
+    })
+    .await;
+    s.stop().await
+}

@@ -179,3 +179,65 @@ fn made_up_robots_cannot_grow_the_roster_without_bound() {
             .is_ok()
     );
 }
+
+#[test]
+fn robots_gone_quiet_give_their_room_to_newcomers() {
+    let mut e = Engine::new(EngineConfig::default());
+    let expiry_s = e.config().admission.robot_expiry_s;
+    // Made-up ids holding liveliness tokens fill the table...
+    for k in 0..MAX_ROBOTS {
+        e.liveliness(&format!("r{k}"), true, at(0.0)).expect("room");
+    }
+    let o = obs("latecomer", 0, expiry_s * 0.5, 0.0);
+    let r = e.observation(Some("latecomer"), &proto::encode(&o), at(expiry_s * 0.5));
+    assert_eq!(r.expect_err("full").reason(), "too_many_robots");
+    // ... only until they have been quiet for the expiry time.
+    let t = expiry_s + 0.5;
+    let o = obs("latecomer", 1, t, 0.0);
+    let r = e.observation(Some("latecomer"), &proto::encode(&o), at(t + 0.05));
+    assert!(r.is_ok(), "{r:?}");
+    assert_eq!(e.robots(at(t)).len(), 1);
+}
+
+#[test]
+fn offline_robots_are_forgotten_after_the_expiry_time() {
+    let mut e = Engine::new(EngineConfig::default());
+    let expiry_s = e.config().admission.robot_expiry_s;
+    feed(&mut e, "miro1", 5);
+    e.liveliness("miro2", true, at(0.0)).expect("room");
+    // miro2 stays online (its token is there) though quiet; miro1 never had a token.
+    feed(&mut e, "miro3", 1);
+    let t = expiry_s + 2.0;
+    let o = obs("miro3", 100, t, 0.0);
+    assert!(
+        e.observation(Some("miro3"), &proto::encode(&o), at(t))
+            .is_ok()
+    );
+    let ids: Vec<String> = e.robots(at(t)).into_iter().map(|r| r.robot_id).collect();
+    assert_eq!(ids, ["miro2", "miro3"]);
+}
+
+#[test]
+fn a_robot_flooding_is_rate_limited_and_the_others_are_not() {
+    let mut e = Engine::new(EngineConfig::default());
+    let burst = e.config().admission.rate_burst;
+    feed(&mut e, "miro2", 1);
+    let now = at(0.1);
+    let mut accepted = 0;
+    for seq in 0..(2 * burst as u64) {
+        let o = obs("miro1", seq, 0.05, 0.1);
+        if e.observation(Some("miro1"), &proto::encode(&o), now)
+            .is_ok()
+        {
+            accepted += 1;
+        }
+    }
+    // The first one admits the robot with a full bucket; the burst follows.
+    assert!(accepted <= burst as u64 + 1, "{accepted}");
+    assert!(rejected(&e, "rate_limited") >= burst as u64 - 1);
+    let o = obs("miro2", 50, 0.09, 0.1);
+    assert!(
+        e.observation(Some("miro2"), &proto::encode(&o), now)
+            .is_ok()
+    );
+}
