@@ -75,10 +75,37 @@ pub struct LimitsFile {
     pub rate_burst: Option<f64>,
     /// Seconds a robot may stay quiet before the server forgets it.
     pub robot_expiry_s: Option<f64>,
+    /// HTTP connections open at once.
+    pub http_max_connections: Option<usize>,
+    /// Seconds from a request's first byte to the start of the answer.
+    pub http_request_timeout_s: Option<f64>,
+    /// Seconds without traffic before an HTTP connection is closed.
+    pub http_idle_timeout_s: Option<f64>,
+    /// Seconds a live-stream frame may take to send before the client is dropped.
+    pub ws_send_timeout_s: Option<f64>,
 }
 
 impl LimitsFile {
-    pub fn apply(&self, engine: &mut crate::engine::EngineConfig) -> Result<(), ConfigError> {
+    pub fn apply(&self, cfg: &mut ServeConfig) -> Result<(), ConfigError> {
+        let h = &mut cfg.http_limits;
+        if let Some(n) = self.http_max_connections {
+            if n == 0 {
+                return Err(ConfigError::Invalid(
+                    "limits.http_max_connections must be positive".into(),
+                ));
+            }
+            h.max_connections = n;
+        }
+        if let Some(v) = self.http_request_timeout_s {
+            h.request_timeout_s = positive("limits.http_request_timeout_s", v)?;
+        }
+        if let Some(v) = self.http_idle_timeout_s {
+            h.idle_timeout_s = positive("limits.http_idle_timeout_s", v)?;
+        }
+        if let Some(v) = self.ws_send_timeout_s {
+            h.ws_send_timeout_s = positive("limits.ws_send_timeout_s", v)?;
+        }
+        let engine = &mut cfg.engine;
         let bytes = |name: &str, v: usize| {
             if (256..=16 << 20).contains(&v) {
                 Ok(v)
@@ -192,7 +219,7 @@ impl FileConfig {
             check_pitch(p)?;
             cfg.engine.fusion.set_pitch(p.clone());
         }
-        self.limits.apply(&mut cfg.engine)?;
+        self.limits.apply(cfg)?;
         self.fusion.apply(&mut cfg.engine.fusion)
     }
 }
@@ -384,6 +411,8 @@ max_mb = 200
             "[limits]\nmax_observation_bytes = 10",
             "[limits]\nrate_limit_hz = 0",
             "[limits]\nrobot_expiry_s = -1",
+            "[limits]\nhttp_max_connections = 0",
+            "[limits]\nws_send_timeout_s = 0",
         ] {
             let f = FileConfig::parse(bad, p).expect(bad);
             assert!(

@@ -172,15 +172,19 @@ async fn stream(State(live): State<Arc<Live>>, ws: WebSocketUpgrade) -> Response
 async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     let mut rx = live.stream.subscribe();
     live.stats.ws_clients.fetch_add(1, Relaxed);
+    let limit = live.ws_send_timeout();
     let first = live.view_json();
-    let mut open = socket.send(Message::Text(first.into())).await.is_ok();
+    let mut open = send_within(&live, &mut socket, first, limit).await;
     while open {
         tokio::select! {
             frame = rx.recv() => match frame {
                 Ok(f) => {
-                    open = socket.send(Message::Text(f.as_ref().into())).await.is_ok();
+                    open = send_within(&live, &mut socket, f.as_ref(), limit).await;
                     if open {
                         live.stats.ws_frames_sent.fetch_add(1, Relaxed);
+                    } else {
+                        // Frames published for it meanwhile are lost with it.
+                        live.stats.ws_frames_dropped.fetch_add(rx.len() as u64, Relaxed);
                     }
                 }
                 Err(RecvError::Lagged(n)) => {
@@ -196,7 +200,26 @@ async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     live.stats.ws_clients.fetch_sub(1, Relaxed);
 }
 
+/// Sends one frame within `limit`; false when the client is gone or too slow (then it is
+/// dropped: a stuck client must not hold a growing send buffer).
+async fn send_within(
+    live: &Live,
+    socket: &mut WebSocket,
+    frame: impl Into<axum::extract::ws::Utf8Bytes>,
+    limit: std::time::Duration,
+) -> bool {
+    match tokio::time::timeout(limit, socket.send(Message::Text(frame.into()))).await {
+        Ok(sent) => sent.is_ok(),
+        Err(_) => {
+            live.stats.ws_send_timeouts.fetch_add(1, Relaxed);
+            live.stats.ws_frames_dropped.fetch_add(1, Relaxed);
+            false
+        }
+    }
+}
+
 mod control;
+pub mod guard;
 
 #[cfg(test)]
 mod tests;

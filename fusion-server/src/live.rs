@@ -114,6 +114,7 @@ pub struct Live {
     /// The replay's control, when the server replays a match log.
     replay: OnceLock<Arc<ReplayControl>>,
     control_access: OnceLock<ControlAccess>,
+    ws_send_timeout: OnceLock<Duration>,
 }
 
 impl Live {
@@ -142,6 +143,7 @@ impl Live {
             last_reject_log: Mutex::new(None),
             replay: OnceLock::new(),
             control_access: OnceLock::new(),
+            ws_send_timeout: OnceLock::new(),
         }
     }
 
@@ -162,6 +164,21 @@ impl Live {
         if self.control_access.set(access).is_err() {
             tracing::warn!("the control access was already set");
         }
+    }
+
+    /// Sets how long a live-stream frame may take to send before its client is dropped
+    /// (once; 5 s unless set).
+    pub fn set_ws_send_timeout(&self, limit: Duration) {
+        if self.ws_send_timeout.set(limit).is_err() {
+            tracing::warn!("the stream's send timeout was already set");
+        }
+    }
+
+    pub fn ws_send_timeout(&self) -> Duration {
+        self.ws_send_timeout
+            .get()
+            .copied()
+            .unwrap_or(Duration::from_secs(5))
     }
 
     pub fn control_access(&self) -> &ControlAccess {

@@ -80,6 +80,10 @@ pub struct ShellStats {
     pub record_skipped_rejected: AtomicU64,
     /// Seconds from an observation's arrival to the publication of a state that includes it.
     pub obs_to_state_s: Mutex<Histogram>,
+    /// Live-stream clients dropped because a frame could not be sent in time.
+    pub ws_send_timeouts: AtomicU64,
+    /// The HTTP listener's connections and deadlines.
+    pub http: std::sync::Arc<crate::http::guard::GuardStats>,
 }
 
 impl ShellStats {
@@ -108,7 +112,8 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let mut out = String::with_capacity(4096);
     let c = engine.counters();
     let core = engine.fusion().counters();
-    let simple: [(&str, &str, &str, u64); 16] = [
+    let h = &shell.http;
+    let simple: [(&str, &str, &str, u64); 21] = [
         (
             "rf_observations_accepted_total",
             "counter",
@@ -168,6 +173,36 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "counter",
             "Frames skipped for slow WebSocket clients.",
             shell.ws_frames_dropped.load(Relaxed),
+        ),
+        (
+            "rf_ws_send_timeouts_total",
+            "counter",
+            "WebSocket clients dropped because a frame could not be sent in time (the frames they missed count as dropped).",
+            shell.ws_send_timeouts.load(Relaxed),
+        ),
+        (
+            "rf_http_connections",
+            "gauge",
+            "Open HTTP connections (WebSocket streams included).",
+            h.open.load(Relaxed),
+        ),
+        (
+            "rf_http_connections_refused_total",
+            "counter",
+            "HTTP connections closed at once because the connection cap was reached.",
+            h.refused.load(Relaxed),
+        ),
+        (
+            "rf_http_request_timeouts_total",
+            "counter",
+            "HTTP connections closed because a request was not complete in time.",
+            h.request_timeouts.load(Relaxed),
+        ),
+        (
+            "rf_http_idle_timeouts_total",
+            "counter",
+            "HTTP connections closed because nothing moved on them for the idle timeout.",
+            h.idle_timeouts.load(Relaxed),
         ),
         (
             "rf_queries_answered_total",

@@ -2,10 +2,12 @@
 //! state, the HTTP server, and the loop that publishes the ball state.
 
 use crate::engine::{Engine, EngineConfig};
+use crate::http::guard::{GuardedListener, HttpLimits};
 use crate::live::{Clock, ControlAccess, Live, MatchLog};
 use crate::net::NetConfig;
 use crate::query;
 use anyhow::{Context, Result};
+use axum::serve::ListenerExt;
 use proto::KeySpace;
 use std::future::Future;
 use std::sync::Arc;
@@ -31,6 +33,8 @@ pub struct ServeConfig {
     /// Token the control endpoints (`POST /api/replay/…`) require as
     /// `Authorization: Bearer TOKEN`; without one, only this machine may use them.
     pub control_token: Option<String>,
+    /// Connection cap and deadlines of the HTTP side.
+    pub http_limits: HttpLimits,
 }
 
 impl Default for ServeConfig {
@@ -45,6 +49,7 @@ impl Default for ServeConfig {
             stream_buffer: 8,
             engine: EngineConfig::default(),
             control_token: None,
+            http_limits: HttpLimits::default(),
         }
     }
 }
@@ -71,6 +76,7 @@ pub fn shared(
         Some(t) => ControlAccess::Token(t.clone()),
         None => ControlAccess::LoopbackOnly,
     });
+    live.set_ws_send_timeout(crate::http::guard::secs(cfg.http_limits.ws_send_timeout_s));
     Ok(Arc::new(live))
 }
 
@@ -146,6 +152,9 @@ pub async fn serve(
     let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
     let app = crate::http::app(live.clone());
     let mut http_stop = stop_rx.clone();
+    // `tap_io` only to get the connection's address to the handlers (the control
+    // endpoints' loopback check).
+    let http = GuardedListener::new(http, &cfg.http_limits, live.stats.http.clone()).tap_io(|_| {});
     let http_task = tokio::spawn(async move {
         axum::serve(
             http,

@@ -11,6 +11,7 @@ use fusion_server::record::RecorderConfig;
 use fusion_server::serve::ServeConfig;
 use server::{TestServer, eventually, now, obs, z};
 use std::sync::Arc;
+use std::time::Duration;
 
 /// A key whose robot chunk is not an id is refused, never taken for the payload's robot.
 #[tokio::test(flavor = "multi_thread")]
@@ -228,5 +229,163 @@ async fn a_flooding_robot_is_rate_limited() -> anyhow::Result<()> {
         })
     })
     .await;
+    s.stop().await
+}
+
+fn with_http(h: fusion_server::http::guard::HttpLimits) -> ServeConfig {
+    ServeConfig {
+        http_limits: h,
+        ..ServeConfig::default()
+    }
+}
+
+/// Reads until the server closes the connection (or `within` passes): true when closed.
+async fn closed_by_server(c: &mut tokio::net::TcpStream, within: Duration) -> bool {
+    use tokio::io::AsyncReadExt;
+    let mut buf = [0u8; 4096];
+    let deadline = tokio::time::Instant::now() + within;
+    loop {
+        match tokio::time::timeout_at(deadline, c.read(&mut buf)).await {
+            Ok(Ok(0)) | Ok(Err(_)) => return true,
+            Ok(Ok(_)) => continue,
+            Err(_) => return false,
+        }
+    }
+}
+
+/// Slowloris: clients sending their headers a byte at a time are cut off by the request
+/// deadline, idle ones by the idle deadline; the page is still served meanwhile.
+#[tokio::test(flavor = "multi_thread")]
+async fn slow_and_idle_http_clients_are_cut_off() -> anyhow::Result<()> {
+    use fusion_server::http::guard::HttpLimits;
+    use tokio::io::AsyncWriteExt;
+    let s = TestServer::start(
+        "h-slow",
+        with_http(HttpLimits {
+            request_timeout_s: 0.5,
+            idle_timeout_s: 0.5,
+            ..HttpLimits::default()
+        }),
+    )
+    .await?;
+    let mut slow = Vec::new();
+    for _ in 0..8 {
+        let mut c = tokio::net::TcpStream::connect(s.http).await?;
+        c.write_all(b"GET / HTTP/1.1\r\nHost: t\r\n").await?;
+        slow.push(c);
+    }
+    let mut idle = tokio::net::TcpStream::connect(s.http).await?;
+    // Trickle a header byte every 100 ms: each keeps the idle deadline away, not the
+    // request deadline.
+    let trickle = async {
+        for _ in 0..30 {
+            for c in &mut slow {
+                if c.write_all(b"X").await.is_err() {
+                    continue;
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    };
+    let (code, _) = s.get("/healthz").await?;
+    assert_eq!(code, 200);
+    trickle.await;
+    for c in &mut slow {
+        assert!(
+            closed_by_server(c, Duration::from_secs(5)).await,
+            "a slowloris client kept"
+        );
+    }
+    assert!(
+        closed_by_server(&mut idle, Duration::from_secs(5)).await,
+        "an idle client kept"
+    );
+    eventually("the deadlines counted", || {
+        (s.metric("rf_http_request_timeouts_total") >= Some(8.0)
+            && s.metric("rf_http_idle_timeouts_total") >= Some(1.0))
+        .then_some(())
+    })
+    .await;
+    s.stop().await
+}
+
+/// Beyond the connection cap, new connections are closed at once (counted); once others
+/// close, the server answers again.
+#[tokio::test(flavor = "multi_thread")]
+async fn connections_beyond_the_cap_are_closed_at_once() -> anyhow::Result<()> {
+    use fusion_server::http::guard::HttpLimits;
+    let s = TestServer::start(
+        "h-cap",
+        with_http(HttpLimits {
+            max_connections: 4,
+            ..HttpLimits::default()
+        }),
+    )
+    .await?;
+    let mut held = Vec::new();
+    for _ in 0..4 {
+        held.push(tokio::net::TcpStream::connect(s.http).await?);
+    }
+    eventually("four open", || {
+        (s.metric("rf_http_connections") == Some(4.0)).then_some(())
+    })
+    .await;
+    let mut extra = tokio::net::TcpStream::connect(s.http).await?;
+    assert!(closed_by_server(&mut extra, Duration::from_secs(5)).await);
+    assert_eq!(s.metric("rf_http_connections_refused_total"), Some(1.0));
+    drop(held);
+    eventually("room again", || {
+        (s.metric("rf_http_connections") == Some(0.0)).then_some(())
+    })
+    .await;
+    let (code, _) = s.get("/healthz").await?;
+    assert_eq!(code, 200);
+    s.stop().await
+}
+
+/// A live-stream client that stops reading is dropped after the send timeout (counted),
+/// instead of holding an ever larger send buffer.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
+    use fusion_server::http::guard::HttpLimits;
+    let s = TestServer::start(
+        "h-ws",
+        with_http(HttpLimits {
+            ws_send_timeout_s: 0.3,
+            ..HttpLimits::default()
+        }),
+    )
+    .await?;
+    // Large (but valid) statuses make large frames, to fill the socket buffers quickly.
+    for k in 0..8 {
+        let robot = format!("big{k}");
+        let mut st = status(&robot);
+        st.footprints = vec![
+            proto::CameraFootprint {
+                camera: proto::Camera::Left,
+                polygon_m: vec![[0.123_456_789, -0.987_654_321]; proto::MAX_FOOTPRINT_POINTS],
+            };
+            proto::MAX_STATUS_FOOTPRINTS
+        ];
+        s.put(&format!("rf/robots/{robot}/status"), proto::encode(&st))
+            .await?;
+    }
+    eventually("the statuses in", || {
+        s.live
+            .with_engine(|e| (e.counters().statuses_accepted == 8).then_some(()))
+    })
+    .await;
+    let url = format!("ws://{}/api/stream", s.http);
+    let (stuck, _) = tokio_tungstenite::connect_async(&url).await?;
+    eventually("the stuck client dropped", || {
+        (s.metric("rf_ws_send_timeouts_total") >= Some(1.0)).then_some(())
+    })
+    .await;
+    eventually("no client left", || {
+        (s.metric("rf_ws_clients") == Some(0.0)).then_some(())
+    })
+    .await;
+    assert!(s.metric("rf_ws_frames_dropped_total") >= Some(1.0));
+    drop(stuck);
     s.stop().await
 }
