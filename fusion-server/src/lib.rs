@@ -15,6 +15,7 @@ pub mod config;
 pub mod core;
 pub mod engine;
 pub mod http;
+pub mod intake;
 pub mod live;
 pub mod matchlog;
 pub mod mcap_read;

@@ -255,12 +255,17 @@ impl Live {
         self.lock().engine.count_rejection(kind, reason);
     }
 
-    /// An observation payload arrived on `key`.
+    /// An observation payload arrived on `key` just now.
     pub fn on_observation(&self, key: &str, payload: &[u8]) {
+        self.on_observation_at(key, payload, self.clock.now());
+    }
+
+    /// An observation payload that arrived on `key` at `now` (the clock read when it was
+    /// received, before any queue or lock: a backlog must not make it look late).
+    pub fn on_observation_at(&self, key: &str, payload: &[u8], now: Stamp) {
         self.stats.inputs_received.fetch_add(1, Relaxed);
         let robot = self.key_robot(key);
         let mut inner = self.lock();
-        let now = self.clock.now();
         let result = inner.engine.observation(robot, payload, now);
         self.record(LogKind::Observation, key, now, payload, result.is_ok());
         match result {
@@ -278,12 +283,16 @@ impl Live {
         }
     }
 
-    /// A status payload arrived on `key`.
+    /// A status payload arrived on `key` just now.
     pub fn on_status(&self, key: &str, payload: &[u8]) {
+        self.on_status_at(key, payload, self.clock.now());
+    }
+
+    /// A status payload that arrived on `key` at `now`.
+    pub fn on_status_at(&self, key: &str, payload: &[u8], now: Stamp) {
         self.stats.inputs_received.fetch_add(1, Relaxed);
         let robot = self.key_robot(key);
         let mut inner = self.lock();
-        let now = self.clock.now();
         let result = inner.engine.status(robot, payload, now);
         self.record(LogKind::Status, key, now, payload, result.is_ok());
         drop(inner);

@@ -3,6 +3,7 @@
 
 use crate::engine::{Engine, EngineConfig};
 use crate::http::guard::{GuardedListener, HttpLimits};
+use crate::intake::{InputKind, Intake};
 use crate::live::{Clock, ControlAccess, Live, MatchLog};
 use crate::net::NetConfig;
 use crate::query;
@@ -95,16 +96,23 @@ pub async fn serve(
     let session = cfg.net.open().await.context("opening the Zenoh session")?;
     let keys = live.keys.clone();
 
-    let l = live.clone();
+    let intake = Intake::start(live.clone()).context("starting the intake thread")?;
+    let i = intake.clone();
     let _obs = session
         .declare_subscriber(keys.all_obs())
-        .callback(move |s| l.on_observation(s.key_expr().as_str(), &s.payload().to_bytes()))
+        .callback(move |s| {
+            let payload = s.payload().to_bytes().into_owned();
+            i.receive(InputKind::Observation, s.key_expr().as_str(), payload);
+        })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to observations: {e}"))?;
-    let l = live.clone();
+    let i = intake.clone();
     let _status = session
         .declare_subscriber(keys.all_status())
-        .callback(move |s| l.on_status(s.key_expr().as_str(), &s.payload().to_bytes()))
+        .callback(move |s| {
+            let payload = s.payload().to_bytes().into_owned();
+            i.receive(InputKind::Status, s.key_expr().as_str(), payload);
+        })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to statuses: {e}"))?;
     let l = live.clone();
@@ -192,5 +200,6 @@ pub async fn serve(
         .close()
         .await
         .map_err(|e| anyhow::anyhow!("closing the Zenoh session: {e}"))?;
+    tokio::task::spawn_blocking(move || intake.stop()).await?;
     Ok(())
 }
