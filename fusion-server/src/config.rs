@@ -135,6 +135,16 @@ impl LimitsFile {
     }
 }
 
+/// `[clock]`: how the robots' clock offsets are judged.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ClockFile {
+    /// Least capture-to-arrival time of an observation, seconds.
+    pub latency_floor_s: Option<f64>,
+    /// Offsets larger than this mark a robot's clock as suspect, seconds.
+    pub offset_warn_s: Option<f64>,
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FileConfig {
@@ -154,6 +164,7 @@ pub struct FileConfig {
     pub fusion: FusionFile,
     pub record: RecordFile,
     pub limits: LimitsFile,
+    pub clock: ClockFile,
 }
 
 impl FileConfig {
@@ -220,6 +231,17 @@ impl FileConfig {
             cfg.engine.fusion.set_pitch(p.clone());
         }
         self.limits.apply(cfg)?;
+        if let Some(v) = self.clock.latency_floor_s {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ConfigError::Invalid(format!(
+                    "clock.latency_floor_s must be zero or positive, got {v}"
+                )));
+            }
+            cfg.engine.clock.latency_floor_s = v;
+        }
+        if let Some(v) = self.clock.offset_warn_s {
+            cfg.engine.clock.warn_s = positive("clock.offset_warn_s", v)?;
+        }
         self.fusion.apply(&mut cfg.engine.fusion)
     }
 }
@@ -412,6 +434,8 @@ max_mb = 200
             "[limits]\nrate_limit_hz = 0",
             "[limits]\nrobot_expiry_s = -1",
             "[limits]\nhttp_max_connections = 0",
+            "[clock]\nlatency_floor_s = -1",
+            "[clock]\noffset_warn_s = 0",
             "[limits]\nws_send_timeout_s = 0",
         ] {
             let f = FileConfig::parse(bad, p).expect(bad);

@@ -13,8 +13,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use thiserror::Error;
 
 mod admission;
+mod clock_offset;
 mod recent;
 pub use admission::{AdmissionConfig, SWEEP_EVERY_S, TokenBucket};
+pub use clock_offset::{ClockCheck, OFFSET_WINDOW, OffsetWindow};
 pub use recent::{RECENT_OBS_MAX, RecentObs, RecentObservations};
 
 /// Why an inbound message was not used.
@@ -80,6 +82,8 @@ pub struct EngineConfig {
     pub max_status_bytes: usize,
     /// Per-robot rate limit and the expiry of robots gone quiet.
     pub admission: AdmissionConfig,
+    /// How the robots' clock offsets are estimated and judged.
+    pub clock: ClockCheck,
 }
 
 /// Default cap on an observation's payload (a real one is about 400 bytes).
@@ -99,6 +103,7 @@ impl Default for EngineConfig {
             max_observation_bytes: DEFAULT_MAX_OBSERVATION_BYTES,
             max_status_bytes: DEFAULT_MAX_STATUS_BYTES,
             admission: AdmissionConfig::default(),
+            clock: ClockCheck::default(),
         }
     }
 }
@@ -141,6 +146,8 @@ struct RobotEntry {
     rate: Rate,
     /// Arrival minus capture of its accepted observations, exponentially averaged.
     latency_s: Option<f64>,
+    /// The same lags, the recent ones, for the clock offset.
+    lags: OffsetWindow,
 }
 
 impl RobotEntry {
@@ -157,6 +164,7 @@ impl RobotEntry {
             rejected: 0,
             rate: Rate::default(),
             latency_s: None,
+            lags: OffsetWindow::default(),
         }
     }
 }
@@ -183,6 +191,12 @@ pub struct RobotView {
     /// Seconds from capture to arrival of its accepted observations, averaged over about
     /// the last ten (`null` until one arrives).
     pub latency_s: Option<f64>,
+    /// Estimated server clock minus robot clock, seconds: the smallest arrival − capture
+    /// of its last [`OFFSET_WINDOW`] accepted observations less the latency floor
+    /// (`null` until one arrives). Positive: the robot's clock is behind.
+    pub clock_offset_s: Option<f64>,
+    /// True when `clock_offset_s` exceeds the warning threshold either way.
+    pub clock_suspect: bool,
     /// Pose from its latest status, else from its latest observation.
     pub pose: Option<Pose2>,
     pub status: Option<RobotStatus>,
@@ -397,6 +411,7 @@ impl Engine {
             Some(l) => l + LATENCY_WEIGHT * (latency_s - l),
             None => latency_s,
         });
+        entry.lags.push(latency_s);
         self.recent.push(&obs, received, None);
         Ok((obs, outcome))
     }
@@ -479,6 +494,7 @@ impl Engine {
             .iter()
             .map(|(id, r)| {
                 let t = trust.iter().find(|t| &*t.robot == id.as_str());
+                let clock_offset_s = r.lags.offset_s(&self.cfg.clock);
                 RobotView {
                     robot_id: id.clone(),
                     online: r.online,
@@ -490,6 +506,8 @@ impl Engine {
                     covariance_scale: t.map(|t| t.covariance_scale),
                     outlier_rate: t.map(|t| t.outlier_rate),
                     latency_s: r.latency_s,
+                    clock_offset_s,
+                    clock_suspect: clock_offset_s.is_some_and(|o| o.abs() > self.cfg.clock.warn_s),
                     pose: self.robot_pose(id),
                     status: r.status.clone(),
                 }

@@ -259,7 +259,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     }
 
     let robots = engine.robots(now);
-    let per_robot: [(&str, &str, &str); 5] = [
+    let per_robot: [(&str, &str, &str); 6] = [
         (
             "rf_robot_online",
             "gauge",
@@ -285,6 +285,11 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "gauge",
             "Share of the robot's reports the others did not confirm.",
         ),
+        (
+            "rf_robot_clock_offset_seconds",
+            "gauge",
+            "Estimated server clock minus the robot's clock (smallest recent arrival minus capture, less the latency floor).",
+        ),
     ];
     for (k, (name, kind, help)) in per_robot.iter().enumerate() {
         family(&mut out, name, kind, help);
@@ -294,13 +299,24 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
                 1 => Some(r.obs_rate_hz),
                 2 => Some(r.observations_rejected as f64),
                 3 => r.covariance_scale,
-                _ => r.outlier_rate,
+                4 => r.outlier_rate,
+                _ => r.clock_offset_s,
             };
             if let Some(v) = v {
                 let _ = writeln!(out, "{name}{{robot=\"{}\"}} {v}", escape(&r.robot_id));
             }
         }
     }
+
+    let name = "rf_robots_clock_suspect";
+    family(
+        &mut out,
+        name,
+        "gauge",
+        "Robots whose estimated clock offset exceeds the warning threshold.",
+    );
+    let suspect = robots.iter().filter(|r| r.clock_suspect).count();
+    let _ = writeln!(out, "{name} {suspect}");
 
     let name = "rf_obs_to_state_latency_seconds";
     family(

@@ -389,3 +389,56 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
     drop(stuck);
     s.stop().await
 }
+
+/// A robot whose clock is 200 ms behind the server's shows that offset in /api/robots and
+/// /metrics and is marked suspect; a robot on time is not.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_robot_clock_off_by_200_ms_is_seen() -> anyhow::Result<()> {
+    let s = TestServer::start("h-clock", ServeConfig::default()).await?;
+    s.until_accepted("ontime").await?;
+    for seq in 0..20 {
+        let t = now();
+        s.put(
+            "rf/robots/ontime/obs",
+            proto::encode(&obs("ontime", 100 + seq, t, 0.5)),
+        )
+        .await?;
+        let late = proto::Stamp(t.0 - 200_000_000);
+        s.put(
+            "rf/robots/behind/obs",
+            proto::encode(&obs("behind", 100 + seq, late, 0.5)),
+        )
+        .await?;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    eventually("the robot behind heard", || {
+        s.live.with_engine(|e| {
+            e.robots(now())
+                .iter()
+                .any(|r| r.robot_id == "behind" && r.observations_accepted >= 15)
+                .then_some(())
+        })
+    })
+    .await;
+    let robots: serde_json::Value = serde_json::from_str(&s.get("/api/robots").await?.1)?;
+    let offset = |id: &str| {
+        robots
+            .as_array()
+            .and_then(|a| a.iter().find(|r| r["robot_id"] == id))
+            .map(|r| (r["clock_offset_s"].as_f64(), r["clock_suspect"].as_bool()))
+    };
+    let (behind, suspect) = offset("behind").expect("behind listed");
+    let behind = behind.expect("an estimate");
+    assert!((0.2..0.3).contains(&behind), "{behind}");
+    assert_eq!(suspect, Some(true));
+    let (ontime, suspect) = offset("ontime").expect("ontime listed");
+    assert!(ontime.expect("an estimate").abs() < 0.1, "{ontime:?}");
+    assert_eq!(suspect, Some(false));
+    assert_eq!(s.metric("rf_robots_clock_suspect"), Some(1.0));
+    let metrics = s.live.metrics_text();
+    assert!(
+        metrics.contains("rf_robot_clock_offset_seconds{robot=\"behind\"} 0.2"),
+        "{metrics}"
+    );
+    s.stop().await
+}
