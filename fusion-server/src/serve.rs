@@ -81,6 +81,51 @@ pub fn shared(
     Ok(Arc::new(live))
 }
 
+/// How long a starting server waits for its first Zenoh link before it looks for another
+/// server with its id.
+const LINK_WAIT: Duration = Duration::from_secs(2);
+/// How long it waits for an answer to that question.
+const DUPLICATE_QUERY_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// Fails when a server with the same id already holds `{prefix}/servers/{id}` on this Zenoh
+/// network: two servers with one id would both publish the ball as that server.
+async fn refuse_duplicate_id(
+    session: &zenoh::Session,
+    cfg: &ServeConfig,
+    server_key: &str,
+) -> Result<()> {
+    // Links to the endpoints we connect to come up in the background: give them a moment,
+    // or the question reaches nobody.
+    if !cfg.net.connect.is_empty() {
+        let deadline = tokio::time::Instant::now() + LINK_WAIT;
+        loop {
+            let info = session.info();
+            let linked = info.peers_zid().await.next().is_some()
+                || info.routers_zid().await.next().is_some();
+            if linked || tokio::time::Instant::now() >= deadline {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+    let replies = session
+        .liveliness()
+        .get(server_key)
+        .timeout(DUPLICATE_QUERY_TIMEOUT)
+        .await
+        .map_err(|e| anyhow::anyhow!("asking for other servers: {e}"))?;
+    while let Ok(reply) = replies.recv_async().await {
+        if reply.result().is_ok() {
+            anyhow::bail!(
+                "another fusion server with id {:?} is already on this Zenoh network \
+                 (its liveliness token {server_key} answers); give this one another --id",
+                cfg.server_id
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Serves until `shutdown` resolves: Zenoh in and out on `cfg.net`, HTTP on `http`.
 pub async fn serve(
     cfg: ServeConfig,
@@ -144,6 +189,7 @@ pub async fn serve(
         .await
         .map_err(|e| anyhow::anyhow!("declaring the predict queryable: {e}"))?;
     let server_key = keys.server_liveliness(&cfg.server_id)?;
+    refuse_duplicate_id(&session, &cfg, &server_key).await?;
     let _token = session
         .liveliness()
         .declare_token(server_key)

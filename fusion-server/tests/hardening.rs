@@ -442,3 +442,47 @@ async fn a_robot_clock_off_by_200_ms_is_seen() -> anyhow::Result<()> {
     );
     s.stop().await
 }
+
+/// A second server with an id already on the network refuses to start, with a clear
+/// error; one with another id joins.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_duplicate_server_id_is_refused() -> anyhow::Result<()> {
+    use fusion_server::live::SystemClock;
+    use fusion_server::net::{NetConfig, free_loopback_port};
+    let first = TestServer::start("h-dup", ServeConfig::default()).await?;
+    let run = |id: &str| {
+        let net = NetConfig {
+            listen: vec![format!("tcp/127.0.0.1:{}", free_loopback_port()?)],
+            connect: vec![first.endpoint.clone()],
+            ..NetConfig::default()
+        };
+        let cfg = ServeConfig {
+            server_id: id.into(),
+            net,
+            ..ServeConfig::default()
+        };
+        let live = fusion_server::serve::shared(&cfg, Arc::new(SystemClock), None)?;
+        anyhow::Ok((cfg, live))
+    };
+    let (cfg, live) = run("h-dup")?;
+    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let err = fusion_server::serve::serve(cfg, live, http, std::future::pending())
+        .await
+        .expect_err("a second h-dup refused");
+    assert!(
+        format!("{err:#}").contains("already on this Zenoh network"),
+        "{err:#}"
+    );
+
+    let (cfg, live) = run("h-other")?;
+    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let (stop, mut stop_rx) = tokio::sync::watch::channel(false);
+    let other = tokio::spawn(fusion_server::serve::serve(cfg, live, http, async move {
+        let _ = stop_rx.wait_for(|s| *s).await;
+    }));
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(!other.is_finished(), "another id runs beside it");
+    let _ = stop.send(true);
+    other.await??;
+    first.stop().await
+}
