@@ -48,6 +48,8 @@ pub struct Intake {
     live: Arc<Live>,
     queued_bytes: Arc<AtomicU64>,
     worker: Mutex<Option<std::thread::JoinHandle<()>>>,
+    /// The engine's caps on (observation, status) payloads.
+    max_bytes: (usize, usize),
 }
 
 impl Intake {
@@ -56,6 +58,10 @@ impl Intake {
         let (tx, rx) = sync_channel(QUEUE_CAPACITY);
         let queued_bytes = Arc::new(AtomicU64::new(0));
         let (l, q) = (live.clone(), queued_bytes.clone());
+        let max_bytes = live.with_engine(|e| {
+            let c = e.config();
+            (c.max_observation_bytes, c.max_status_bytes)
+        });
         let worker = std::thread::Builder::new()
             .name("intake".into())
             .spawn(move || work(&l, &rx, &q))?;
@@ -64,12 +70,23 @@ impl Intake {
             live,
             queued_bytes,
             worker: Mutex::new(Some(worker)),
+            max_bytes,
         }))
     }
 
-    /// A sample arrived now on `key`: stamped, then queued (or dropped and counted).
-    pub fn receive(&self, kind: InputKind, key: &str, payload: Vec<u8>) {
+    /// A sample arrived now on `key`: stamped, then copied and queued (or dropped and
+    /// counted). A payload over its cap is counted as `too_large` here, never copied.
+    pub fn receive(&self, kind: InputKind, key: &str, payload: &[u8]) {
         let received = self.live.clock.now();
+        let cap = match kind {
+            InputKind::Observation => self.max_bytes.0,
+            InputKind::Status => self.max_bytes.1,
+        };
+        if payload.len() > cap {
+            self.live.count_refused_input(kind.label(), "too_large");
+            return;
+        }
+        let payload = payload.to_vec();
         let bytes = payload.len() as u64;
         let before = self.queued_bytes.fetch_add(bytes, Relaxed);
         let input = Input {
@@ -88,8 +105,7 @@ impl Intake {
             };
         if !sent {
             self.queued_bytes.fetch_sub(bytes, Relaxed);
-            self.live.stats.inputs_received.fetch_add(1, Relaxed);
-            self.live.count_rejection(kind.label(), "queue_full");
+            self.live.count_refused_input(kind.label(), "queue_full");
         }
     }
 
@@ -171,7 +187,11 @@ mod tests {
         for seq in 0..n {
             let now = t0.offset_secs(seq as f64 * 1e-3);
             clock.0.store(now.0, Relaxed);
-            intake.receive(InputKind::Observation, "rf/robots/miro1/obs", obs(seq, now));
+            intake.receive(
+                InputKind::Observation,
+                "rf/robots/miro1/obs",
+                &obs(seq, now),
+            );
         }
         clock.0.store(t0.offset_secs(2.0).0, Relaxed);
         release_tx.send(())?;

@@ -255,6 +255,16 @@ impl Live {
         self.lock().engine.count_rejection(kind, reason);
     }
 
+    /// Counts an input refused in the shell before the engine saw it (oversized, or the
+    /// intake queue full): a rejection, and one more input left out of the match log.
+    pub fn count_refused_input(&self, kind: &'static str, reason: &'static str) {
+        self.stats.inputs_received.fetch_add(1, Relaxed);
+        if self.log.is_some() {
+            self.stats.record_skipped_rejected.fetch_add(1, Relaxed);
+        }
+        self.count_rejection(kind, reason);
+    }
+
     /// An observation payload arrived on `key` just now.
     pub fn on_observation(&self, key: &str, payload: &[u8]) {
         self.on_observation_at(key, payload, self.clock.now());

@@ -146,8 +146,8 @@ pub async fn serve(
     let _obs = session
         .declare_subscriber(keys.all_obs())
         .callback(move |s| {
-            let payload = s.payload().to_bytes().into_owned();
-            i.receive(InputKind::Observation, s.key_expr().as_str(), payload);
+            let payload = s.payload().to_bytes();
+            i.receive(InputKind::Observation, s.key_expr().as_str(), &payload);
         })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to observations: {e}"))?;
@@ -155,8 +155,8 @@ pub async fn serve(
     let _status = session
         .declare_subscriber(keys.all_status())
         .callback(move |s| {
-            let payload = s.payload().to_bytes().into_owned();
-            i.receive(InputKind::Status, s.key_expr().as_str(), payload);
+            let payload = s.payload().to_bytes();
+            i.receive(InputKind::Status, s.key_expr().as_str(), &payload);
         })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to statuses: {e}"))?;

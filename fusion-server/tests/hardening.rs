@@ -486,3 +486,47 @@ async fn a_duplicate_server_id_is_refused() -> anyhow::Result<()> {
     other.await??;
     first.stop().await
 }
+
+/// A burst of valid observations, sent as fast as the client can, is judged on arrival:
+/// none of it becomes `too_late` while the fusion works through it.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_burst_of_valid_observations_is_not_made_late() -> anyhow::Result<()> {
+    use fusion_server::engine::AdmissionConfig;
+    let s = TestServer::start(
+        "h-burst",
+        with_admission(AdmissionConfig {
+            rate_limit_hz: 1e6,
+            rate_burst: 1e6,
+            ..AdmissionConfig::default()
+        }),
+    )
+    .await?;
+    s.until_accepted("burst").await?;
+    let n = 3000_u64;
+    let publisher = s
+        .client
+        .declare_publisher("rf/robots/burst/obs")
+        .congestion_control(zenoh::qos::CongestionControl::Block)
+        .await
+        .map_err(z)?;
+    for seq in 0..n {
+        let o = obs("burst", 1000 + seq, now(), 0.5 + 1e-4 * seq as f64);
+        publisher.put(proto::encode(&o)).await.map_err(z)?;
+    }
+    let accepted = || {
+        s.live.with_engine(|e| {
+            e.robots(now())
+                .iter()
+                .find(|r| r.robot_id == "burst")
+                .map_or(0, |r| r.observations_accepted + r.observations_rejected)
+        })
+    };
+    eventually("the burst worked through", || {
+        (accepted() > n).then_some(())
+    })
+    .await;
+    assert_eq!(s.rejected("observation", "too_late"), 0);
+    assert_eq!(s.rejected("observation", "queue_full"), 0);
+    drop(publisher);
+    s.stop().await
+}
