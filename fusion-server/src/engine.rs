@@ -88,9 +88,9 @@ pub struct EngineConfig {
 
 /// Default cap on an observation's payload (a real one is about 400 bytes).
 pub const DEFAULT_MAX_OBSERVATION_BYTES: usize = 4096;
-/// Default cap on a status payload (a real one, with two footprints, is a few kilobytes;
-/// the largest status [`proto::Validate`] accepts fits).
-pub const DEFAULT_MAX_STATUS_BYTES: usize = 64 * 1024;
+/// Default cap on a status payload (a real one, with two footprints of 24 corners, is
+/// about 2 KiB; the largest status [`proto::Validate`] accepts, written plainly, fits).
+pub const DEFAULT_MAX_STATUS_BYTES: usize = 16 * 1024;
 
 impl Default for EngineConfig {
     fn default() -> Self {

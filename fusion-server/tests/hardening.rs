@@ -357,7 +357,8 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
     )
     .await?;
     // Large (but valid) statuses make large frames, to fill the socket buffers quickly.
-    for k in 0..8 {
+    let robots = 40;
+    for k in 0..robots {
         let robot = format!("big{k}");
         let mut st = status(&robot);
         st.footprints = vec![
@@ -372,7 +373,7 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
     }
     eventually("the statuses in", || {
         s.live
-            .with_engine(|e| (e.counters().statuses_accepted == 8).then_some(()))
+            .with_engine(|e| (e.counters().statuses_accepted == robots).then_some(()))
     })
     .await;
     let url = format!("ws://{}/api/stream", s.http);

@@ -46,7 +46,7 @@ pub const MAX_STAGE_NAME_BYTES: usize = 64;
 /// Most camera footprints a [`RobotStatus`] may carry.
 pub const MAX_STATUS_FOOTPRINTS: usize = 4;
 /// Most corners of one footprint polygon.
-pub const MAX_FOOTPRINT_POINTS: usize = 256;
+pub const MAX_FOOTPRINT_POINTS: usize = 64;
 
 impl ValidationError {
     /// A short stable label for counting rejections by reason.

@@ -241,3 +241,43 @@ fn a_robot_flooding_is_rate_limited_and_the_others_are_not() {
             .is_ok()
     );
 }
+
+/// The largest status validation accepts, every number at full precision, fits the
+/// default byte cap: the cap never refuses a status validation would take.
+#[test]
+fn the_largest_valid_status_fits_the_byte_cap() {
+    let v = -1.234_567_890_123_456_7;
+    let status = proto::RobotStatus {
+        version: proto::VERSION,
+        robot_id: "r".repeat(64),
+        stamp: at(0.0),
+        pose: Pose2 {
+            x_m: v,
+            y_m: v,
+            theta_rad: v,
+        },
+        pose_covariance: [v; 9],
+        head: proto::HeadJoints {
+            lift_rad: v,
+            yaw_rad: v,
+            pitch_rad: v,
+        },
+        fps: 1_234.567_890_123_456_7,
+        timings: vec![
+            proto::StageTiming {
+                stage: "s".repeat(proto::MAX_STAGE_NAME_BYTES),
+                ms: 12_345.678_901_234_567,
+            };
+            proto::MAX_STATUS_TIMINGS
+        ],
+        footprints: vec![
+            proto::CameraFootprint {
+                camera: Camera::Right,
+                polygon_m: vec![[v, v]; proto::MAX_FOOTPRINT_POINTS],
+            };
+            proto::MAX_STATUS_FOOTPRINTS
+        ],
+    };
+    let bytes = proto::encode(&status).len();
+    assert!(bytes <= DEFAULT_MAX_STATUS_BYTES, "{bytes}");
+}
