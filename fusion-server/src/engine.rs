@@ -86,10 +86,10 @@ pub struct EngineConfig {
     pub clock: ClockCheck,
 }
 
-/// Default cap on an observation's payload (a real one is about 400 bytes).
+/// Default cap on an observation's payload (the protocol's example is under 300 bytes).
 pub const DEFAULT_MAX_OBSERVATION_BYTES: usize = 4096;
-/// Default cap on a status payload (a real one, with two footprints of 24 corners, is
-/// about 2 KiB; the largest status [`proto::Validate`] accepts, written plainly, fits).
+/// Default cap on a status payload: the largest status [`proto::Validate`] accepts, every
+/// number at full precision, fits (tested).
 pub const DEFAULT_MAX_STATUS_BYTES: usize = 16 * 1024;
 
 impl Default for EngineConfig {
