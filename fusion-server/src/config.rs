@@ -61,6 +61,90 @@ pub struct FusionFile {
     pub learn_restitution: Option<bool>,
 }
 
+/// `[limits]`: the bounds that keep made-up or oversized input from hurting the server.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LimitsFile {
+    /// Largest observation payload, bytes.
+    pub max_observation_bytes: Option<usize>,
+    /// Largest status payload, bytes.
+    pub max_status_bytes: Option<usize>,
+    /// Messages a robot may send per second on average.
+    pub rate_limit_hz: Option<f64>,
+    /// Messages a robot may send at once above the average.
+    pub rate_burst: Option<f64>,
+    /// Seconds a robot may stay quiet before the server forgets it.
+    pub robot_expiry_s: Option<f64>,
+    /// HTTP connections open at once.
+    pub http_max_connections: Option<usize>,
+    /// Seconds from a request's first byte to the start of the answer.
+    pub http_request_timeout_s: Option<f64>,
+    /// Seconds without traffic before an HTTP connection is closed.
+    pub http_idle_timeout_s: Option<f64>,
+    /// Seconds a live-stream frame may take to send before the client is dropped.
+    pub ws_send_timeout_s: Option<f64>,
+}
+
+impl LimitsFile {
+    pub fn apply(&self, cfg: &mut ServeConfig) -> Result<(), ConfigError> {
+        let h = &mut cfg.http_limits;
+        if let Some(n) = self.http_max_connections {
+            if n == 0 {
+                return Err(ConfigError::Invalid(
+                    "limits.http_max_connections must be positive".into(),
+                ));
+            }
+            h.max_connections = n;
+        }
+        if let Some(v) = self.http_request_timeout_s {
+            h.request_timeout_s = positive("limits.http_request_timeout_s", v)?;
+        }
+        if let Some(v) = self.http_idle_timeout_s {
+            h.idle_timeout_s = positive("limits.http_idle_timeout_s", v)?;
+        }
+        if let Some(v) = self.ws_send_timeout_s {
+            h.ws_send_timeout_s = positive("limits.ws_send_timeout_s", v)?;
+        }
+        let engine = &mut cfg.engine;
+        let bytes = |name: &str, v: usize| {
+            if (256..=16 << 20).contains(&v) {
+                Ok(v)
+            } else {
+                Err(ConfigError::Invalid(format!(
+                    "limits.{name} must be in 256..=16777216 bytes, got {v}"
+                )))
+            }
+        };
+        if let Some(v) = self.max_observation_bytes {
+            engine.max_observation_bytes = bytes("max_observation_bytes", v)?;
+        }
+        if let Some(v) = self.max_status_bytes {
+            engine.max_status_bytes = bytes("max_status_bytes", v)?;
+        }
+        let a = &mut engine.admission;
+        if let Some(v) = self.rate_limit_hz {
+            a.rate_limit_hz = positive("limits.rate_limit_hz", v)?;
+        }
+        if let Some(v) = self.rate_burst {
+            a.rate_burst = positive("limits.rate_burst", v)?.max(1.0);
+        }
+        if let Some(v) = self.robot_expiry_s {
+            a.robot_expiry_s = positive("limits.robot_expiry_s", v)?;
+        }
+        Ok(())
+    }
+}
+
+/// `[clock]`: how the robots' clock offsets are judged.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ClockFile {
+    /// Least capture-to-arrival time of an observation, seconds.
+    pub latency_floor_s: Option<f64>,
+    /// Offsets larger than this mark a robot's clock as suspect, seconds.
+    pub offset_warn_s: Option<f64>,
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FileConfig {
@@ -79,6 +163,8 @@ pub struct FileConfig {
     pub pitch: Option<Pitch>,
     pub fusion: FusionFile,
     pub record: RecordFile,
+    pub limits: LimitsFile,
+    pub clock: ClockFile,
 }
 
 impl FileConfig {
@@ -143,6 +229,18 @@ impl FileConfig {
         if let Some(p) = &self.pitch {
             check_pitch(p)?;
             cfg.engine.fusion.set_pitch(p.clone());
+        }
+        self.limits.apply(cfg)?;
+        if let Some(v) = self.clock.latency_floor_s {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ConfigError::Invalid(format!(
+                    "clock.latency_floor_s must be zero or positive, got {v}"
+                )));
+            }
+            cfg.engine.clock.latency_floor_s = v;
+        }
+        if let Some(v) = self.clock.offset_warn_s {
+            cfg.engine.clock.warn_s = positive("clock.offset_warn_s", v)?;
         }
         self.fusion.apply(&mut cfg.engine.fusion)
     }
@@ -332,6 +430,13 @@ max_mb = 200
             "[fusion]\ndecel_sigma_mps2 = -0.1",
             "[fusion]\nrestitution_sigma = nan",
             "[fusion]\nlate_window_s = inf",
+            "[limits]\nmax_observation_bytes = 10",
+            "[limits]\nrate_limit_hz = 0",
+            "[limits]\nrobot_expiry_s = -1",
+            "[limits]\nhttp_max_connections = 0",
+            "[clock]\nlatency_floor_s = -1",
+            "[clock]\noffset_warn_s = 0",
+            "[limits]\nws_send_timeout_s = 0",
         ] {
             let f = FileConfig::parse(bad, p).expect(bad);
             assert!(

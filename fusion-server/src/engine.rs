@@ -12,7 +12,11 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use thiserror::Error;
 
+mod admission;
+mod clock_offset;
 mod recent;
+pub use admission::{AdmissionConfig, SWEEP_EVERY_S, TokenBucket};
+pub use clock_offset::{ClockCheck, OFFSET_WINDOW, OffsetWindow};
 pub use recent::{RECENT_OBS_MAX, RecentObs, RecentObservations};
 
 /// Why an inbound message was not used.
@@ -30,10 +34,16 @@ pub enum Rejection {
     Core(&'static str),
     #[error("robot {0:?} would be more than {MAX_ROBOTS} robots")]
     TooManyRobots(String),
+    #[error("the key's robot chunk {0:?} is not a valid robot id")]
+    BadKey(String),
+    #[error("payload of {bytes} bytes exceeds the limit of {limit} bytes")]
+    TooLarge { bytes: usize, limit: usize },
+    #[error("robot {0:?} sends faster than its rate limit")]
+    RateLimited(String),
 }
 
 /// Distinct robots the server keeps track of (without a roster, a flood of made-up ids
-/// must not grow its state).
+/// must not grow its state; robots gone quiet are forgotten, see [`AdmissionConfig`]).
 pub const MAX_ROBOTS: usize = 256;
 
 impl Rejection {
@@ -48,6 +58,9 @@ impl Rejection {
             Rejection::KeyMismatch { .. } => "key_mismatch",
             Rejection::Core(r) => r,
             Rejection::TooManyRobots(_) => "too_many_robots",
+            Rejection::BadKey(_) => "key_robot_id",
+            Rejection::TooLarge { .. } => "too_large",
+            Rejection::RateLimited(_) => "rate_limited",
         }
     }
 }
@@ -63,7 +76,21 @@ pub struct EngineConfig {
     pub max_clock_skew_s: f64,
     /// Largest accepted distance of a reported position outside the pitch.
     pub max_outside_m: f64,
+    /// Largest observation payload, checked before it is parsed.
+    pub max_observation_bytes: usize,
+    /// Largest status payload, checked before it is parsed.
+    pub max_status_bytes: usize,
+    /// Per-robot rate limit and the expiry of robots gone quiet.
+    pub admission: AdmissionConfig,
+    /// How the robots' clock offsets are estimated and judged.
+    pub clock: ClockCheck,
 }
+
+/// Default cap on an observation's payload (the protocol's example is under 300 bytes).
+pub const DEFAULT_MAX_OBSERVATION_BYTES: usize = 4096;
+/// Default cap on a status payload: the largest status [`proto::Validate`] accepts, every
+/// number at full precision, fits (tested).
+pub const DEFAULT_MAX_STATUS_BYTES: usize = 16 * 1024;
 
 impl Default for EngineConfig {
     fn default() -> Self {
@@ -73,6 +100,10 @@ impl Default for EngineConfig {
             robot_speed_mps: 0.4,
             max_clock_skew_s: 10.0,
             max_outside_m: 1.0,
+            max_observation_bytes: DEFAULT_MAX_OBSERVATION_BYTES,
+            max_status_bytes: DEFAULT_MAX_STATUS_BYTES,
+            admission: AdmissionConfig::default(),
+            clock: ClockCheck::default(),
         }
     }
 }
@@ -99,8 +130,11 @@ impl Rate {
     }
 }
 
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 struct RobotEntry {
+    /// Last accepted message or liveliness change (receiver clock): what expiry looks at.
+    last_heard: Stamp,
+    bucket: TokenBucket,
     online: bool,
     /// When `online` last changed (receiver clock).
     since: Option<Stamp>,
@@ -112,6 +146,27 @@ struct RobotEntry {
     rate: Rate,
     /// Arrival minus capture of its accepted observations, exponentially averaged.
     latency_s: Option<f64>,
+    /// The same lags, the recent ones, for the clock offset.
+    lags: OffsetWindow,
+}
+
+impl RobotEntry {
+    fn new(now: Stamp, burst: f64) -> Self {
+        RobotEntry {
+            last_heard: now,
+            bucket: TokenBucket::full(burst),
+            online: false,
+            since: None,
+            status: None,
+            status_received: None,
+            last_obs_received: None,
+            accepted: 0,
+            rejected: 0,
+            rate: Rate::default(),
+            latency_s: None,
+            lags: OffsetWindow::default(),
+        }
+    }
 }
 
 /// Weight of the newest observation in a robot's average latency.
@@ -136,6 +191,12 @@ pub struct RobotView {
     /// Seconds from capture to arrival of its accepted observations, averaged over about
     /// the last ten (`null` until one arrives).
     pub latency_s: Option<f64>,
+    /// Estimated server clock minus robot clock, seconds: the smallest arrival − capture
+    /// of its last [`OFFSET_WINDOW`] accepted observations less the latency floor
+    /// (`null` until one arrives). Positive: the robot's clock is behind.
+    pub clock_offset_s: Option<f64>,
+    /// True when `clock_offset_s` exceeds the warning threshold either way.
+    pub clock_suspect: bool,
     /// Pose from its latest status, else from its latest observation.
     pub pose: Option<Pose2>,
     pub status: Option<RobotStatus>,
@@ -158,6 +219,8 @@ pub struct Engine {
     robots: BTreeMap<String, RobotEntry>,
     counters: EngineCounters,
     recent: RecentObservations,
+    /// When the table was last swept for robots gone quiet.
+    swept: Option<Stamp>,
 }
 
 impl Engine {
@@ -168,6 +231,7 @@ impl Engine {
             robots: BTreeMap::new(),
             counters: EngineCounters::default(),
             recent: RecentObservations::default(),
+            swept: None,
         }
     }
 
@@ -196,7 +260,14 @@ impl Engine {
         }
     }
 
+    /// `key_robot` is the key's robot chunk as it came (`None` only for callers without a
+    /// key, such as a replay): a chunk that is not a valid id is refused, never skipped.
     fn check_robot(&self, key_robot: Option<&str>, robot_id: &str) -> Result<(), Rejection> {
+        if let Some(key) = key_robot
+            && !proto::is_valid_id(key)
+        {
+            return Err(Rejection::BadKey(key.to_string()));
+        }
         if let Some(key) = key_robot
             && key != robot_id
         {
@@ -207,10 +278,61 @@ impl Engine {
         }
         match &self.cfg.roster {
             Some(r) if !r.contains(robot_id) => Err(Rejection::UnknownRobot(robot_id.into())),
-            _ if self.robots.len() >= MAX_ROBOTS && !self.robots.contains_key(robot_id) => {
-                Err(Rejection::TooManyRobots(robot_id.into()))
-            }
             _ => Ok(()),
+        }
+    }
+
+    /// Room for `robot_id` in the table at `now` (robots gone quiet are forgotten to make it).
+    fn make_room(&mut self, robot_id: &str, now: Stamp) -> Result<(), Rejection> {
+        if !self.robots.contains_key(robot_id) && self.robots.len() >= MAX_ROBOTS {
+            let expiry_s = self.cfg.admission.robot_expiry_s;
+            self.robots
+                .retain(|_, r| now.secs_since(r.last_heard) <= expiry_s);
+            if self.robots.len() >= MAX_ROBOTS {
+                return Err(Rejection::TooManyRobots(robot_id.into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// The entry of `robot_id` (made if new), heard of at `now`; call [`Self::make_room`] first.
+    fn entry_at(&mut self, robot_id: &str, now: Stamp) -> &mut RobotEntry {
+        let burst = self.cfg.admission.rate_burst;
+        let entry = self
+            .robots
+            .entry(robot_id.to_string())
+            .or_insert_with(|| RobotEntry::new(now, burst));
+        entry.last_heard = entry.last_heard.max(now);
+        entry
+    }
+
+    /// Forgets robots whose token is gone and that were not heard of for the expiry time
+    /// (at most once a [`SWEEP_EVERY_S`]).
+    fn sweep(&mut self, now: Stamp) {
+        if self
+            .swept
+            .is_some_and(|s| now.secs_since(s) < SWEEP_EVERY_S)
+        {
+            return;
+        }
+        self.swept = Some(now);
+        let expiry_s = self.cfg.admission.robot_expiry_s;
+        self.robots
+            .retain(|_, r| r.online || now.secs_since(r.last_heard) <= expiry_s);
+    }
+
+    /// Takes a token from the bucket of a robot already known by the key's id; unknown
+    /// robots are judged once they are admitted.
+    fn check_rate(&mut self, key_robot: Option<&str>, now: Stamp) -> Result<(), Rejection> {
+        let a = &self.cfg.admission;
+        let (rate_hz, burst) = (a.rate_limit_hz, a.rate_burst);
+        let Some((id, r)) = key_robot.and_then(|k| self.robots.get_mut(k).map(|r| (k, r))) else {
+            return Ok(());
+        };
+        if r.bucket.take(now, rate_hz, burst) {
+            Ok(())
+        } else {
+            Err(Rejection::RateLimited(id.to_string()))
         }
     }
 
@@ -234,6 +356,17 @@ impl Engine {
         payload: &[u8],
         received: Stamp,
     ) -> Result<(Observation, Ingest), Rejection> {
+        if payload.len() > self.cfg.max_observation_bytes {
+            let e = Rejection::TooLarge {
+                bytes: payload.len(),
+                limit: self.cfg.max_observation_bytes,
+            };
+            return Err(self.reject("observation", key_robot, e));
+        }
+        self.sweep(received);
+        if let Err(e) = self.check_rate(key_robot, received) {
+            return Err(self.reject("observation", key_robot, e));
+        }
         let obs: Observation = match proto::decode(payload) {
             Ok(o) => o,
             Err(e) => return Err(self.reject("observation", key_robot, e.into())),
@@ -250,7 +383,8 @@ impl Engine {
     ) -> Result<(Observation, Ingest), Rejection> {
         let checked = self
             .check_robot(key_robot, &obs.robot_id)
-            .and_then(|()| Ok(obs.validate(&self.context(received))?));
+            .and_then(|()| Ok(obs.validate(&self.context(received))?))
+            .and_then(|()| self.make_room(&obs.robot_id, received));
         if let Err(e) = checked {
             self.recent.push(&obs, received, Some(e.reason()));
             return Err(self.reject("observation", Some(&obs.robot_id), e));
@@ -268,7 +402,7 @@ impl Engine {
             return Err(self.reject("observation", Some(&obs.robot_id), Rejection::Core(r)));
         }
         self.counters.observations_accepted += 1;
-        let entry = self.robots.entry(obs.robot_id.clone()).or_default();
+        let entry = self.entry_at(&obs.robot_id, received);
         entry.accepted += 1;
         entry.last_obs_received = Some(received);
         entry.rate.hit(received);
@@ -277,6 +411,7 @@ impl Engine {
             Some(l) => l + LATENCY_WEIGHT * (latency_s - l),
             None => latency_s,
         });
+        entry.lags.push(latency_s);
         self.recent.push(&obs, received, None);
         Ok((obs, outcome))
     }
@@ -288,18 +423,30 @@ impl Engine {
         payload: &[u8],
         received: Stamp,
     ) -> Result<RobotStatus, Rejection> {
+        if payload.len() > self.cfg.max_status_bytes {
+            let e = Rejection::TooLarge {
+                bytes: payload.len(),
+                limit: self.cfg.max_status_bytes,
+            };
+            return Err(self.reject("status", key_robot, e));
+        }
+        self.sweep(received);
+        if let Err(e) = self.check_rate(key_robot, received) {
+            return Err(self.reject("status", key_robot, e));
+        }
         let status: RobotStatus = match proto::decode(payload) {
             Ok(s) => s,
             Err(e) => return Err(self.reject("status", key_robot, e.into())),
         };
         let checked = self
             .check_robot(key_robot, &status.robot_id)
-            .and_then(|()| Ok(status.validate(&self.context(received))?));
+            .and_then(|()| Ok(status.validate(&self.context(received))?))
+            .and_then(|()| self.make_room(&status.robot_id, received));
         if let Err(e) = checked {
             return Err(self.reject("status", Some(&status.robot_id), e));
         }
         self.counters.statuses_accepted += 1;
-        let entry = self.robots.entry(status.robot_id.clone()).or_default();
+        let entry = self.entry_at(&status.robot_id, received);
         entry.status = Some(status.clone());
         entry.status_received = Some(received);
         Ok(status)
@@ -311,9 +458,11 @@ impl Engine {
             let e = Rejection::Invalid(ValidationError::BadRobotId(robot_id.into()));
             return Err(self.reject("liveliness", None, e));
         }
+        self.sweep(at);
         self.check_robot(None, robot_id)
+            .and_then(|()| self.make_room(robot_id, at))
             .map_err(|e| self.reject("liveliness", None, e))?;
-        let entry = self.robots.entry(robot_id.to_string()).or_default();
+        let entry = self.entry_at(robot_id, at);
         if entry.online != alive || entry.since.is_none() {
             entry.online = alive;
             entry.since = Some(at);
@@ -345,6 +494,7 @@ impl Engine {
             .iter()
             .map(|(id, r)| {
                 let t = trust.iter().find(|t| &*t.robot == id.as_str());
+                let clock_offset_s = r.lags.offset_s(&self.cfg.clock);
                 RobotView {
                     robot_id: id.clone(),
                     online: r.online,
@@ -356,6 +506,8 @@ impl Engine {
                     covariance_scale: t.map(|t| t.covariance_scale),
                     outlier_rate: t.map(|t| t.outlier_rate),
                     latency_s: r.latency_s,
+                    clock_offset_s,
+                    clock_suspect: clock_offset_s.is_some_and(|o| o.abs() > self.cfg.clock.warn_s),
                     pose: self.robot_pose(id),
                     status: r.status.clone(),
                 }
@@ -367,6 +519,11 @@ impl Engine {
     /// rejected (with the reason), oldest first.
     pub fn recent_observations(&self, now: Stamp, window_s: f64) -> Vec<RecentObs> {
         self.recent.within(now, window_s)
+    }
+
+    /// Counts a rejection decided outside the engine (an oversized query).
+    pub fn count_rejection(&mut self, kind: &'static str, reason: &'static str) {
+        *self.counters.rejected.entry((kind, reason)).or_default() += 1;
     }
 
     /// Rejected inputs so far, by `kind/reason` (as the metrics label them).

@@ -89,13 +89,29 @@ fn answer(live: &Live, q: Result<BallQuery, QueryError>) -> Response {
     }
 }
 
-type Params = Query<Vec<(String, String)>>;
+/// The query's `name=value` pairs, its size checked before it is parsed (an oversized one
+/// is counted as a rejected `query`, reason `too_large`).
+fn params(live: &Live, uri: &Uri) -> Result<Vec<(String, String)>, (StatusCode, String)> {
+    let raw = uri.query().unwrap_or_default();
+    if let Err(e) = query::check_size(raw) {
+        live.count_rejection("query", "too_large");
+        return Err((StatusCode::URI_TOO_LONG, e.to_string()));
+    }
+    match Query::<Vec<(String, String)>>::try_from_uri(uri) {
+        Ok(Query(p)) => Ok(p),
+        Err(e) => Err((StatusCode::BAD_REQUEST, e.body_text())),
+    }
+}
 
 fn pairs(p: &[(String, String)]) -> impl Iterator<Item = (&str, &str)> {
     p.iter().map(|(k, v)| (k.as_str(), v.as_str()))
 }
 
-async fn predict(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
+async fn predict(State(live): State<Arc<Live>>, uri: Uri) -> Response {
+    let p = match params(&live, &uri) {
+        Ok(p) => p,
+        Err((status, why)) => return error(status, why),
+    };
     let q = query::parse(pairs(&p)).and_then(|q| match q {
         BallQuery::Predict { .. } => Ok(q),
         BallQuery::Intercept { .. } => Err(QueryError::Unknown("robot".into())),
@@ -103,7 +119,11 @@ async fn predict(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
     answer(&live, q)
 }
 
-async fn intercept(State(live): State<Arc<Live>>, Query(p): Params) -> Response {
+async fn intercept(State(live): State<Arc<Live>>, uri: Uri) -> Response {
+    let p = match params(&live, &uri) {
+        Ok(p) => p,
+        Err((status, why)) => return error(status, why),
+    };
     let q = query::parse(pairs(&p)).and_then(|q| match q {
         BallQuery::Intercept { .. } => Ok(q),
         BallQuery::Predict { .. } => Err(QueryError::Unknown("t".into())),
@@ -152,15 +172,19 @@ async fn stream(State(live): State<Arc<Live>>, ws: WebSocketUpgrade) -> Response
 async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     let mut rx = live.stream.subscribe();
     live.stats.ws_clients.fetch_add(1, Relaxed);
+    let limit = live.ws_send_timeout();
     let first = live.view_json();
-    let mut open = socket.send(Message::Text(first.into())).await.is_ok();
+    let mut open = send_within(&live, &mut socket, first, limit).await;
     while open {
         tokio::select! {
             frame = rx.recv() => match frame {
                 Ok(f) => {
-                    open = socket.send(Message::Text(f.as_ref().into())).await.is_ok();
+                    open = send_within(&live, &mut socket, f.as_ref(), limit).await;
                     if open {
                         live.stats.ws_frames_sent.fetch_add(1, Relaxed);
+                    } else {
+                        // Frames published for it meanwhile are lost with it.
+                        live.stats.ws_frames_dropped.fetch_add(rx.len() as u64, Relaxed);
                     }
                 }
                 Err(RecvError::Lagged(n)) => {
@@ -176,7 +200,26 @@ async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     live.stats.ws_clients.fetch_sub(1, Relaxed);
 }
 
+/// Sends one frame within `limit`; false when the client is gone or too slow (then it is
+/// dropped: a stuck client must not hold a growing send buffer).
+async fn send_within(
+    live: &Live,
+    socket: &mut WebSocket,
+    frame: impl Into<axum::extract::ws::Utf8Bytes>,
+    limit: std::time::Duration,
+) -> bool {
+    match tokio::time::timeout(limit, socket.send(Message::Text(frame.into()))).await {
+        Ok(sent) => sent.is_ok(),
+        Err(_) => {
+            live.stats.ws_send_timeouts.fetch_add(1, Relaxed);
+            live.stats.ws_frames_dropped.fetch_add(1, Relaxed);
+            false
+        }
+    }
+}
+
 mod control;
+pub mod guard;
 
 #[cfg(test)]
 mod tests;

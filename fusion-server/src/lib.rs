@@ -5,7 +5,8 @@
 //! offline replay and the evaluation all drive the very same code.
 //!
 //! Around it, [`engine`] (also pure) decodes, validates and counts what arrives, and the
-//! I/O shell serves it: [`serve`] (Zenoh and HTTP, through [`live`] and [`http`]),
+//! I/O shell serves it: [`serve`] (Zenoh and HTTP, through [`intake`], [`live`] and
+//! [`http`], whose [`http::guard`] bounds connections),
 //! [`net`] (Zenoh session settings), [`metrics`] and [`query`]; [`record`] writes match
 //! logs (MCAP files Foxglove opens) and [`mcap_read`] reads them back for replay,
 //! including logs cut short by a crash; [`replay`] re-fuses them offline and
@@ -15,6 +16,7 @@ pub mod config;
 pub mod core;
 pub mod engine;
 pub mod http;
+pub mod intake;
 pub mod live;
 pub mod matchlog;
 pub mod mcap_read;

@@ -48,6 +48,10 @@ pub trait MatchLog: Send + Sync + Debug {
     fn log(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]);
     /// Records written and records dropped so far.
     fn counts(&self) -> (u64, u64);
+    /// Payload bytes waiting to be written.
+    fn queued_bytes(&self) -> u64 {
+        0
+    }
 }
 
 /// The body of `GET /api/state` and of each live-stream frame.
@@ -110,6 +114,7 @@ pub struct Live {
     /// The replay's control, when the server replays a match log.
     replay: OnceLock<Arc<ReplayControl>>,
     control_access: OnceLock<ControlAccess>,
+    ws_send_timeout: OnceLock<Duration>,
 }
 
 impl Live {
@@ -138,6 +143,7 @@ impl Live {
             last_reject_log: Mutex::new(None),
             replay: OnceLock::new(),
             control_access: OnceLock::new(),
+            ws_send_timeout: OnceLock::new(),
         }
     }
 
@@ -158,6 +164,21 @@ impl Live {
         if self.control_access.set(access).is_err() {
             tracing::warn!("the control access was already set");
         }
+    }
+
+    /// Sets how long a live-stream frame may take to send before its client is dropped
+    /// (once; 5 s unless set).
+    pub fn set_ws_send_timeout(&self, limit: Duration) {
+        if self.ws_send_timeout.set(limit).is_err() {
+            tracing::warn!("the stream's send timeout was already set");
+        }
+    }
+
+    pub fn ws_send_timeout(&self) -> Duration {
+        self.ws_send_timeout
+            .get()
+            .copied()
+            .unwrap_or(Duration::from_secs(5))
     }
 
     pub fn control_access(&self) -> &ControlAccess {
@@ -212,17 +233,51 @@ impl Live {
         }
     }
 
-    /// An observation payload arrived on `key`.
-    pub fn on_observation(&self, key: &str, payload: &[u8]) {
-        self.stats.inputs_received.fetch_add(1, Relaxed);
-        let robot = self.keys.robot_id_of(key);
-        let mut inner = self.lock();
-        let now = self.clock.now();
-        let result = inner.engine.observation(robot, payload, now);
-        let decoded = !matches!(result, Err(crate::engine::Rejection::Decode(_)));
-        if decoded && let Some(log) = &self.log {
-            log.log(LogKind::Observation, key, now, payload);
+    /// The robot chunk of a robot's key as it came (the whole key when it is not under
+    /// `{prefix}/robots/`, which the engine then refuses as not an id).
+    fn key_robot<'k>(&self, key: &'k str) -> Option<&'k str> {
+        Some(self.keys.robot_chunk_of(key).unwrap_or(key))
+    }
+
+    /// Hands an accepted input to the match log. A rejected one is only counted: whoever
+    /// sends junk must not be able to fill the disk with it.
+    fn record(&self, kind: LogKind, key: &str, now: Stamp, payload: &[u8], accepted: bool) {
+        let Some(log) = &self.log else { return };
+        if accepted {
+            log.log(kind, key, now, payload);
+        } else {
+            self.stats.record_skipped_rejected.fetch_add(1, Relaxed);
         }
+    }
+
+    /// Counts a rejection decided in the shell (an oversized query), with the engine's.
+    pub fn count_rejection(&self, kind: &'static str, reason: &'static str) {
+        self.lock().engine.count_rejection(kind, reason);
+    }
+
+    /// Counts an input refused in the shell before the engine saw it (oversized, or the
+    /// intake queue full): a rejection, and one more input left out of the match log.
+    pub fn count_refused_input(&self, kind: &'static str, reason: &'static str) {
+        self.stats.inputs_received.fetch_add(1, Relaxed);
+        if self.log.is_some() {
+            self.stats.record_skipped_rejected.fetch_add(1, Relaxed);
+        }
+        self.count_rejection(kind, reason);
+    }
+
+    /// An observation payload arrived on `key` just now.
+    pub fn on_observation(&self, key: &str, payload: &[u8]) {
+        self.on_observation_at(key, payload, self.clock.now());
+    }
+
+    /// An observation payload that arrived on `key` at `now` (the clock read when it was
+    /// received, before any queue or lock: a backlog must not make it look late).
+    pub fn on_observation_at(&self, key: &str, payload: &[u8], now: Stamp) {
+        self.stats.inputs_received.fetch_add(1, Relaxed);
+        let robot = self.key_robot(key);
+        let mut inner = self.lock();
+        let result = inner.engine.observation(robot, payload, now);
+        self.record(LogKind::Observation, key, now, payload, result.is_ok());
         match result {
             Ok(_) => {
                 inner.unpublished.push(now);
@@ -238,17 +293,18 @@ impl Live {
         }
     }
 
-    /// A status payload arrived on `key`.
+    /// A status payload arrived on `key` just now.
     pub fn on_status(&self, key: &str, payload: &[u8]) {
+        self.on_status_at(key, payload, self.clock.now());
+    }
+
+    /// A status payload that arrived on `key` at `now`.
+    pub fn on_status_at(&self, key: &str, payload: &[u8], now: Stamp) {
         self.stats.inputs_received.fetch_add(1, Relaxed);
-        let robot = self.keys.robot_id_of(key);
+        let robot = self.key_robot(key);
         let mut inner = self.lock();
-        let now = self.clock.now();
         let result = inner.engine.status(robot, payload, now);
-        let decoded = !matches!(result, Err(crate::engine::Rejection::Decode(_)));
-        if decoded && let Some(log) = &self.log {
-            log.log(LogKind::Status, key, now, payload);
-        }
+        self.record(LogKind::Status, key, now, payload, result.is_ok());
         drop(inner);
         if let Err(e) = result {
             self.log_rejection("status", key, &e);
@@ -257,9 +313,8 @@ impl Live {
 
     /// A robot liveliness token under `key` appeared or went away.
     pub fn on_liveliness(&self, key: &str, alive: bool) {
-        let Some(robot) = self.keys.robot_id_of(key) else {
-            return;
-        };
+        // A chunk that is not an id is refused and counted by the engine.
+        let robot = self.keys.robot_chunk_of(key).unwrap_or(key);
         let now = self.clock.now();
         let result = self.lock().engine.liveliness(robot, alive, now);
         match result {
@@ -364,6 +419,9 @@ impl Live {
             let (written, dropped) = log.counts();
             self.stats.recorded.store(written, Relaxed);
             self.stats.record_dropped.store(dropped, Relaxed);
+            self.stats
+                .record_queue_bytes
+                .store(log.queued_bytes(), Relaxed);
         }
         let inner = self.lock();
         crate::metrics::render(&inner.engine, &self.stats, self.clock.now())

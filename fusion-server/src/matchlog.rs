@@ -83,6 +83,11 @@ impl MatchLog for McapLog {
             })
             .unwrap_or_default()
     }
+
+    fn queued_bytes(&self) -> u64 {
+        let guard = self.handle.lock().unwrap_or_else(|p| p.into_inner());
+        guard.as_ref().map_or(0, |h| h.stats().queued_bytes)
+    }
 }
 
 /// A [`crate::replay::ReplaySink`] for offline tools: records go to a writer thread

@@ -74,8 +74,16 @@ pub struct ShellStats {
     pub queries_failed: AtomicU64,
     pub recorded: AtomicU64,
     pub record_dropped: AtomicU64,
+    /// Payload bytes waiting in the match log's queue.
+    pub record_queue_bytes: AtomicU64,
+    /// Rejected inputs left out of the match log.
+    pub record_skipped_rejected: AtomicU64,
     /// Seconds from an observation's arrival to the publication of a state that includes it.
     pub obs_to_state_s: Mutex<Histogram>,
+    /// Live-stream clients dropped because a frame could not be sent in time.
+    pub ws_send_timeouts: AtomicU64,
+    /// The HTTP listener's connections and deadlines.
+    pub http: std::sync::Arc<crate::http::guard::GuardStats>,
 }
 
 impl ShellStats {
@@ -104,7 +112,8 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let mut out = String::with_capacity(4096);
     let c = engine.counters();
     let core = engine.fusion().counters();
-    let simple: [(&str, &str, &str, u64); 14] = [
+    let h = &shell.http;
+    let simple: [(&str, &str, &str, u64); 21] = [
         (
             "rf_observations_accepted_total",
             "counter",
@@ -166,6 +175,36 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             shell.ws_frames_dropped.load(Relaxed),
         ),
         (
+            "rf_ws_send_timeouts_total",
+            "counter",
+            "WebSocket clients dropped because a frame could not be sent in time (the frames they missed count as dropped).",
+            shell.ws_send_timeouts.load(Relaxed),
+        ),
+        (
+            "rf_http_connections",
+            "gauge",
+            "Open HTTP connections (WebSocket streams included).",
+            h.open.load(Relaxed),
+        ),
+        (
+            "rf_http_connections_refused_total",
+            "counter",
+            "HTTP connections closed at once because the connection cap was reached.",
+            h.refused.load(Relaxed),
+        ),
+        (
+            "rf_http_request_timeouts_total",
+            "counter",
+            "HTTP connections closed because a request was not complete in time.",
+            h.request_timeouts.load(Relaxed),
+        ),
+        (
+            "rf_http_idle_timeouts_total",
+            "counter",
+            "HTTP connections closed because nothing moved on them for the idle timeout.",
+            h.idle_timeouts.load(Relaxed),
+        ),
+        (
             "rf_queries_answered_total",
             "counter",
             "Prediction and intercept queries answered.",
@@ -189,6 +228,18 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "Messages the match log could not keep up with.",
             shell.record_dropped.load(Relaxed),
         ),
+        (
+            "rf_record_queue_bytes",
+            "gauge",
+            "Payload bytes waiting in the match log's queue (bounded; beyond it records are dropped).",
+            shell.record_queue_bytes.load(Relaxed),
+        ),
+        (
+            "rf_record_skipped_rejected_total",
+            "counter",
+            "Rejected inputs left out of the match log (they are counted by reason instead).",
+            shell.record_skipped_rejected.load(Relaxed),
+        ),
     ];
     for (name, kind, help, v) in simple {
         family(&mut out, name, kind, help);
@@ -208,7 +259,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     }
 
     let robots = engine.robots(now);
-    let per_robot: [(&str, &str, &str); 5] = [
+    let per_robot: [(&str, &str, &str); 6] = [
         (
             "rf_robot_online",
             "gauge",
@@ -234,6 +285,11 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "gauge",
             "Share of the robot's reports the others did not confirm.",
         ),
+        (
+            "rf_robot_clock_offset_seconds",
+            "gauge",
+            "Estimated server clock minus the robot's clock (smallest recent arrival minus capture, less the latency floor).",
+        ),
     ];
     for (k, (name, kind, help)) in per_robot.iter().enumerate() {
         family(&mut out, name, kind, help);
@@ -243,13 +299,24 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
                 1 => Some(r.obs_rate_hz),
                 2 => Some(r.observations_rejected as f64),
                 3 => r.covariance_scale,
-                _ => r.outlier_rate,
+                4 => r.outlier_rate,
+                _ => r.clock_offset_s,
             };
             if let Some(v) = v {
                 let _ = writeln!(out, "{name}{{robot=\"{}\"}} {v}", escape(&r.robot_id));
             }
         }
     }
+
+    let name = "rf_robots_clock_suspect";
+    family(
+        &mut out,
+        name,
+        "gauge",
+        "Robots whose estimated clock offset exceeds the warning threshold.",
+    );
+    let suspect = robots.iter().filter(|r| r.clock_suspect).count();
+    let _ = writeln!(out, "{name} {suspect}");
 
     let name = "rf_obs_to_state_latency_seconds";
     family(

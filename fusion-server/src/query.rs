@@ -8,6 +8,9 @@ use thiserror::Error;
 pub const MAX_HORIZON_S: f64 = 10.0;
 /// Fastest robot an intercept query may assume.
 pub const MAX_ROBOT_SPEED_MPS: f64 = 5.0;
+/// Longest query parameter text (`t=1.5`, `robot=ID;speed=MPS`) accepted, in bytes; a
+/// longer one is refused before it is parsed.
+pub const MAX_QUERY_BYTES: usize = 256;
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum BallQuery {
@@ -56,6 +59,19 @@ pub enum QueryError {
     UnknownRobot(String),
     #[error("no ball estimate yet")]
     NoEstimate,
+    #[error("the query's parameters are {bytes} bytes long (limit {MAX_QUERY_BYTES})")]
+    TooLarge { bytes: usize },
+}
+
+/// Refuses parameter text longer than [`MAX_QUERY_BYTES`], before any parsing.
+pub fn check_size(params: &str) -> Result<(), QueryError> {
+    if params.len() > MAX_QUERY_BYTES {
+        Err(QueryError::TooLarge {
+            bytes: params.len(),
+        })
+    } else {
+        Ok(())
+    }
 }
 
 impl QueryError {

@@ -72,6 +72,9 @@ pub struct RecorderConfig {
     pub compression: LogCompression,
     /// Records the [`RecorderHandle`] queue holds before it drops new ones.
     pub queue_capacity: usize,
+    /// Payload bytes the [`RecorderHandle`] queue holds before it drops new records: a
+    /// slow disk must not let the queue take the server's memory.
+    pub queue_max_bytes: u64,
 }
 
 impl RecorderConfig {
@@ -81,9 +84,11 @@ impl RecorderConfig {
     pub const DEFAULT_CHUNK_SIZE_BYTES: u64 = 1 << 20;
     /// Default queue capacity of a [`RecorderHandle`].
     pub const DEFAULT_QUEUE_CAPACITY: usize = 1 << 16;
+    /// Default byte bound of a [`RecorderHandle`]'s queue (64 MiB).
+    pub const DEFAULT_QUEUE_MAX_BYTES: u64 = 64 << 20;
 
     /// Logs in `dir` named `match-…`, no rotation, a flush every 0.5 s, 1 MiB zstd chunks
-    /// and a queue of 65 536 records.
+    /// and a queue of 65 536 records or 64 MiB of payloads, whichever is reached first.
     pub fn new(dir: impl Into<PathBuf>) -> Self {
         Self {
             dir: dir.into(),
@@ -94,6 +99,7 @@ impl RecorderConfig {
             chunk_size_bytes: Self::DEFAULT_CHUNK_SIZE_BYTES,
             compression: LogCompression::Zstd,
             queue_capacity: Self::DEFAULT_QUEUE_CAPACITY,
+            queue_max_bytes: Self::DEFAULT_QUEUE_MAX_BYTES,
         }
     }
 
@@ -132,6 +138,9 @@ impl RecorderConfig {
         }
         if self.queue_capacity == 0 {
             return bad("queue_capacity must be positive".to_owned());
+        }
+        if self.queue_max_bytes == 0 {
+            return bad("queue_max_bytes must be positive".to_owned());
         }
         Ok(())
     }
@@ -275,6 +284,10 @@ mod tests {
             },
             RecorderConfig {
                 queue_capacity: 0,
+                ..base.clone()
+            },
+            RecorderConfig {
+                queue_max_bytes: 0,
                 ..base.clone()
             },
         ];

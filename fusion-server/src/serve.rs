@@ -2,10 +2,13 @@
 //! state, the HTTP server, and the loop that publishes the ball state.
 
 use crate::engine::{Engine, EngineConfig};
+use crate::http::guard::{GuardedListener, HttpLimits};
+use crate::intake::{InputKind, Intake};
 use crate::live::{Clock, ControlAccess, Live, MatchLog};
 use crate::net::NetConfig;
 use crate::query;
 use anyhow::{Context, Result};
+use axum::serve::ListenerExt;
 use proto::KeySpace;
 use std::future::Future;
 use std::sync::Arc;
@@ -31,6 +34,8 @@ pub struct ServeConfig {
     /// Token the control endpoints (`POST /api/replay/…`) require as
     /// `Authorization: Bearer TOKEN`; without one, only this machine may use them.
     pub control_token: Option<String>,
+    /// Connection cap and deadlines of the HTTP side.
+    pub http_limits: HttpLimits,
 }
 
 impl Default for ServeConfig {
@@ -45,6 +50,7 @@ impl Default for ServeConfig {
             stream_buffer: 8,
             engine: EngineConfig::default(),
             control_token: None,
+            http_limits: HttpLimits::default(),
         }
     }
 }
@@ -71,7 +77,53 @@ pub fn shared(
         Some(t) => ControlAccess::Token(t.clone()),
         None => ControlAccess::LoopbackOnly,
     });
+    live.set_ws_send_timeout(crate::http::guard::secs(cfg.http_limits.ws_send_timeout_s));
     Ok(Arc::new(live))
+}
+
+/// How long a starting server waits for its first Zenoh link before it looks for another
+/// server with its id.
+const LINK_WAIT: Duration = Duration::from_secs(2);
+/// How long it waits for an answer to that question.
+const DUPLICATE_QUERY_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// Fails when a server with the same id already holds `{prefix}/servers/{id}` on this Zenoh
+/// network: two servers with one id would both publish the ball as that server.
+async fn refuse_duplicate_id(
+    session: &zenoh::Session,
+    cfg: &ServeConfig,
+    server_key: &str,
+) -> Result<()> {
+    // Links to the endpoints we connect to come up in the background: give them a moment,
+    // or the question reaches nobody.
+    if !cfg.net.connect.is_empty() {
+        let deadline = tokio::time::Instant::now() + LINK_WAIT;
+        loop {
+            let info = session.info();
+            let linked = info.peers_zid().await.next().is_some()
+                || info.routers_zid().await.next().is_some();
+            if linked || tokio::time::Instant::now() >= deadline {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+    let replies = session
+        .liveliness()
+        .get(server_key)
+        .timeout(DUPLICATE_QUERY_TIMEOUT)
+        .await
+        .map_err(|e| anyhow::anyhow!("asking for other servers: {e}"))?;
+    while let Ok(reply) = replies.recv_async().await {
+        if reply.result().is_ok() {
+            anyhow::bail!(
+                "another fusion server with id {:?} is already on this Zenoh network \
+                 (its liveliness token {server_key} answers); give this one another --id",
+                cfg.server_id
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Serves until `shutdown` resolves: Zenoh in and out on `cfg.net`, HTTP on `http`.
@@ -89,16 +141,23 @@ pub async fn serve(
     let session = cfg.net.open().await.context("opening the Zenoh session")?;
     let keys = live.keys.clone();
 
-    let l = live.clone();
+    let intake = Intake::start(live.clone()).context("starting the intake thread")?;
+    let i = intake.clone();
     let _obs = session
         .declare_subscriber(keys.all_obs())
-        .callback(move |s| l.on_observation(s.key_expr().as_str(), &s.payload().to_bytes()))
+        .callback(move |s| {
+            let payload = s.payload().to_bytes();
+            i.receive(InputKind::Observation, s.key_expr().as_str(), &payload);
+        })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to observations: {e}"))?;
-    let l = live.clone();
+    let i = intake.clone();
     let _status = session
         .declare_subscriber(keys.all_status())
-        .callback(move |s| l.on_status(s.key_expr().as_str(), &s.payload().to_bytes()))
+        .callback(move |s| {
+            let payload = s.payload().to_bytes();
+            i.receive(InputKind::Status, s.key_expr().as_str(), &payload);
+        })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to statuses: {e}"))?;
     let l = live.clone();
@@ -113,7 +172,11 @@ pub async fn serve(
     let _queryable = session
         .declare_queryable(keys.ball_predict())
         .callback(move |q| {
-            let parsed = query::parse(q.parameters().iter());
+            let sized = query::check_size(q.parameters().as_str());
+            if sized.is_err() {
+                l.count_rejection("query", "too_large");
+            }
+            let parsed = sized.and_then(|()| query::parse(q.parameters().iter()));
             let result = parsed.and_then(|p| l.query(&p));
             let sent = match result {
                 Ok(reply) => q.reply(q.key_expr().clone(), reply.to_json()).wait(),
@@ -126,6 +189,7 @@ pub async fn serve(
         .await
         .map_err(|e| anyhow::anyhow!("declaring the predict queryable: {e}"))?;
     let server_key = keys.server_liveliness(&cfg.server_id)?;
+    refuse_duplicate_id(&session, &cfg, &server_key).await?;
     let _token = session
         .liveliness()
         .declare_token(server_key)
@@ -142,6 +206,9 @@ pub async fn serve(
     let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
     let app = crate::http::app(live.clone());
     let mut http_stop = stop_rx.clone();
+    // `tap_io` only to get the connection's address to the handlers (the control
+    // endpoints' loopback check).
+    let http = GuardedListener::new(http, &cfg.http_limits, live.stats.http.clone()).tap_io(|_| {});
     let http_task = tokio::spawn(async move {
         axum::serve(
             http,
@@ -179,5 +246,6 @@ pub async fn serve(
         .close()
         .await
         .map_err(|e| anyhow::anyhow!("closing the Zenoh session: {e}"))?;
+    tokio::task::spawn_blocking(move || intake.stop()).await?;
     Ok(())
 }

@@ -199,3 +199,21 @@ fn a_simulated_log_plays_back_as_if_live() {
     assert!(status.success());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Two servers (two ids) recording into one directory, started together, both run and
+/// leave complete logs of their own.
+#[test]
+fn two_servers_share_a_record_directory() {
+    let dir = temp_dir("two-servers");
+    let d = dir.to_str().expect("utf-8 path");
+    let (mut a, _, _) = start_server(&["--id", "rec-a", "--record", d]);
+    let (mut b, _, _) = start_server(&["--id", "rec-b", "--record", d]);
+    assert!(a.terminate(Duration::from_secs(20)).success());
+    assert!(b.terminate(Duration::from_secs(20)).success());
+    let files = logs_in(&dir);
+    assert_eq!(files.len(), 2, "{files:?}");
+    for f in &files {
+        assert!(read_log(f).expect("read").complete, "{f:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

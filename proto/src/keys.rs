@@ -107,9 +107,16 @@ impl KeySpace {
 
     /// The robot id in a key such as `{prefix}/robots/{id}/obs`, if it is one.
     pub fn robot_id_of<'k>(&self, key: &'k str) -> Option<&'k str> {
+        self.robot_chunk_of(key).filter(|id| is_valid_id(id))
+    }
+
+    /// The chunk where a robot id belongs in `{prefix}/robots/{chunk}/…`, valid id or not
+    /// (`None` when the key is not under `{prefix}/robots/`). A receiver must reject a
+    /// message whose chunk is not a valid id rather than skip the comparison with the
+    /// payload's `robot_id`.
+    pub fn robot_chunk_of<'k>(&self, key: &'k str) -> Option<&'k str> {
         let rest = key.strip_prefix(&self.prefix)?.strip_prefix("/robots/")?;
-        let id = rest.split('/').next()?;
-        is_valid_id(id).then_some(id)
+        rest.split('/').next()
     }
 }
 
@@ -129,6 +136,12 @@ mod tests {
         assert_eq!(k.server_liveliness("s1").as_deref(), Ok("rf/servers/s1"));
         assert_eq!(k.robot_id_of("rf/robots/miro1/obs"), Some("miro1"));
         assert_eq!(k.robot_id_of("xx/robots/miro1/obs"), None);
+        assert_eq!(k.robot_id_of("rf/robots/not.an.id/obs"), None);
+        assert_eq!(
+            k.robot_chunk_of("rf/robots/not.an.id/obs"),
+            Some("not.an.id")
+        );
+        assert_eq!(k.robot_chunk_of("rf/ball/state"), None);
     }
 
     #[test]

@@ -27,7 +27,10 @@ pub use messages::{
 };
 pub use pitch::{Pitch, WallSide};
 pub use stamp::Stamp;
-pub use validate::{Validate, ValidationContext, ValidationError};
+pub use validate::{
+    MAX_FOOTPRINT_POINTS, MAX_STAGE_NAME_BYTES, MAX_STATUS_FOOTPRINTS, MAX_STATUS_TIMINGS,
+    Validate, ValidationContext, ValidationError,
+};
 
 /// Version of the wire format. Decoders reject messages carrying any other version.
 pub const VERSION: u32 = 1;

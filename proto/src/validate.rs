@@ -25,7 +25,28 @@ pub enum ValidationError {
     StampOutOfRange { skew_s: f64, limit_s: f64 },
     #[error("field {field} is out of range: {value}")]
     OutOfRange { field: &'static str, value: f64 },
+    #[error("field {field} has {count} entries (limit {limit})")]
+    TooMany {
+        field: &'static str,
+        count: usize,
+        limit: usize,
+    },
+    #[error("field {field} is {bytes} bytes long (limit {limit})")]
+    TooLong {
+        field: &'static str,
+        bytes: usize,
+        limit: usize,
+    },
 }
+
+/// Most stage timings a [`RobotStatus`] may carry.
+pub const MAX_STATUS_TIMINGS: usize = 32;
+/// Longest stage name of a timing, in bytes.
+pub const MAX_STAGE_NAME_BYTES: usize = 64;
+/// Most camera footprints a [`RobotStatus`] may carry.
+pub const MAX_STATUS_FOOTPRINTS: usize = 4;
+/// Most corners of one footprint polygon.
+pub const MAX_FOOTPRINT_POINTS: usize = 64;
 
 impl ValidationError {
     /// A short stable label for counting rejections by reason.
@@ -40,6 +61,8 @@ impl ValidationError {
             ValidationError::OutsidePitch { .. } => "outside_pitch",
             ValidationError::StampOutOfRange { .. } => "stamp",
             ValidationError::OutOfRange { .. } => "out_of_range",
+            ValidationError::TooMany { .. } => "too_many",
+            ValidationError::TooLong { .. } => "too_long",
         }
     }
 }
@@ -153,6 +176,44 @@ fn check_covariance<const N: usize>(field: &'static str, m: &[f64]) -> Result<()
     Ok(())
 }
 
+fn check_count(field: &'static str, count: usize, limit: usize) -> Result<(), ValidationError> {
+    if count <= limit {
+        Ok(())
+    } else {
+        Err(ValidationError::TooMany {
+            field,
+            count,
+            limit,
+        })
+    }
+}
+
+/// The caps on every variable-length field of a status, checked first (cheapest, and a
+/// huge status must not cost a walk over its contents).
+fn check_status_sizes(s: &RobotStatus) -> Result<(), ValidationError> {
+    check_count("timings", s.timings.len(), MAX_STATUS_TIMINGS)?;
+    if let Some(t) = s
+        .timings
+        .iter()
+        .find(|t| t.stage.len() > MAX_STAGE_NAME_BYTES)
+    {
+        return Err(ValidationError::TooLong {
+            field: "timings.stage",
+            bytes: t.stage.len(),
+            limit: MAX_STAGE_NAME_BYTES,
+        });
+    }
+    check_count("footprints", s.footprints.len(), MAX_STATUS_FOOTPRINTS)?;
+    for f in &s.footprints {
+        check_count(
+            "footprints.polygon_m",
+            f.polygon_m.len(),
+            MAX_FOOTPRINT_POINTS,
+        )?;
+    }
+    Ok(())
+}
+
 fn check_range(field: &'static str, value: f64, lo: f64, hi: f64) -> Result<(), ValidationError> {
     if (lo..=hi).contains(&value) {
         Ok(())
@@ -186,6 +247,7 @@ impl Validate for RobotStatus {
     fn validate(&self, ctx: &ValidationContext) -> Result<(), ValidationError> {
         check_version(self.version)?;
         check_robot_id(&self.robot_id)?;
+        check_status_sizes(self)?;
         let pose = &self.pose;
         check_finite("pose", &[pose.x_m, pose.y_m, pose.theta_rad])?;
         let head = &self.head;

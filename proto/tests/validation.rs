@@ -166,6 +166,38 @@ mod robot_status {
         );
     }
 
+    /// Every variable-length field is capped, so a huge status is refused whole.
+    #[test]
+    fn sizes_are_capped() {
+        use proto::{
+            CameraFootprint, MAX_FOOTPRINT_POINTS, MAX_STAGE_NAME_BYTES, MAX_STATUS_FOOTPRINTS,
+            MAX_STATUS_TIMINGS, StageTiming,
+        };
+        let timing = |stage: String| StageTiming { stage, ms: 1.0 };
+        let mut m = base();
+        m.timings = vec![timing("s".into()); MAX_STATUS_TIMINGS];
+        assert_accepted(&m, &ctx());
+        m.timings.push(timing("s".into()));
+        assert_rejected(&m, &ctx(), "too_many");
+        let mut m = base();
+        m.timings[0].stage = "x".repeat(MAX_STAGE_NAME_BYTES);
+        assert_accepted(&m, &ctx());
+        m.timings[0].stage.push('x');
+        assert_rejected(&m, &ctx(), "too_long");
+        let mut m = base();
+        let f = m.footprints[0].clone();
+        m.footprints = vec![f.clone(); MAX_STATUS_FOOTPRINTS];
+        assert_accepted(&m, &ctx());
+        m.footprints.push(f);
+        assert_rejected(&m, &ctx(), "too_many");
+        let mut m = base();
+        m.footprints[0] = CameraFootprint {
+            camera: m.footprints[0].camera,
+            polygon_m: vec![[0.0, 0.0]; MAX_FOOTPRINT_POINTS + 1],
+        };
+        assert_rejected(&m, &ctx(), "too_many");
+    }
+
     #[test]
     fn pose_outside_pitch() {
         check_position(&base(), |m, p| {
@@ -399,6 +431,8 @@ fn reason_labels_are_distinct_and_stable() {
             "outside_pitch",
             "stamp",
             "out_of_range",
+            "too_many",
+            "too_long",
         ]
     );
     for e in examples::one_error_of_each_kind() {

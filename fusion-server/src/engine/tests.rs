@@ -81,6 +81,7 @@ fn every_kind_of_bad_input_is_counted_and_good_input_keeps_flowing() {
         (proto::encode(&absurd), "miro1", "stamp"),
         (proto::encode(&stranger), "miro9", "unknown_robot"),
         (proto::encode(&good), "miro2", "key_mismatch"),
+        (proto::encode(&good), "not.an.id", "key_robot_id"),
     ];
     for (payload, key, reason) in &cases {
         let r = e.observation(Some(key), payload, now);
@@ -177,4 +178,106 @@ fn made_up_robots_cannot_grow_the_roster_without_bound() {
         e.observation(Some("r1"), &proto::encode(&o), at(0.05))
             .is_ok()
     );
+}
+
+#[test]
+fn robots_gone_quiet_give_their_room_to_newcomers() {
+    let mut e = Engine::new(EngineConfig::default());
+    let expiry_s = e.config().admission.robot_expiry_s;
+    // Made-up ids holding liveliness tokens fill the table...
+    for k in 0..MAX_ROBOTS {
+        e.liveliness(&format!("r{k}"), true, at(0.0)).expect("room");
+    }
+    let o = obs("latecomer", 0, expiry_s * 0.5, 0.0);
+    let r = e.observation(Some("latecomer"), &proto::encode(&o), at(expiry_s * 0.5));
+    assert_eq!(r.expect_err("full").reason(), "too_many_robots");
+    // ... only until they have been quiet for the expiry time.
+    let t = expiry_s + 0.5;
+    let o = obs("latecomer", 1, t, 0.0);
+    let r = e.observation(Some("latecomer"), &proto::encode(&o), at(t + 0.05));
+    assert!(r.is_ok(), "{r:?}");
+    assert_eq!(e.robots(at(t)).len(), 1);
+}
+
+#[test]
+fn offline_robots_are_forgotten_after_the_expiry_time() {
+    let mut e = Engine::new(EngineConfig::default());
+    let expiry_s = e.config().admission.robot_expiry_s;
+    feed(&mut e, "miro1", 5);
+    e.liveliness("miro2", true, at(0.0)).expect("room");
+    // miro2 stays online (its token is there) though quiet; miro1 never had a token.
+    feed(&mut e, "miro3", 1);
+    let t = expiry_s + 2.0;
+    let o = obs("miro3", 100, t, 0.0);
+    assert!(
+        e.observation(Some("miro3"), &proto::encode(&o), at(t))
+            .is_ok()
+    );
+    let ids: Vec<String> = e.robots(at(t)).into_iter().map(|r| r.robot_id).collect();
+    assert_eq!(ids, ["miro2", "miro3"]);
+}
+
+#[test]
+fn a_robot_flooding_is_rate_limited_and_the_others_are_not() {
+    let mut e = Engine::new(EngineConfig::default());
+    let burst = e.config().admission.rate_burst;
+    feed(&mut e, "miro2", 1);
+    let now = at(0.1);
+    let mut accepted = 0;
+    for seq in 0..(2 * burst as u64) {
+        let o = obs("miro1", seq, 0.05, 0.1);
+        if e.observation(Some("miro1"), &proto::encode(&o), now)
+            .is_ok()
+        {
+            accepted += 1;
+        }
+    }
+    // The first one admits the robot with a full bucket; the burst follows.
+    assert!(accepted <= burst as u64 + 1, "{accepted}");
+    assert!(rejected(&e, "rate_limited") >= burst as u64 - 1);
+    let o = obs("miro2", 50, 0.09, 0.1);
+    assert!(
+        e.observation(Some("miro2"), &proto::encode(&o), now)
+            .is_ok()
+    );
+}
+
+/// The largest status validation accepts, every number at full precision, fits the
+/// default byte cap: the cap never refuses a status validation would take.
+#[test]
+fn the_largest_valid_status_fits_the_byte_cap() {
+    let v = -1.234_567_890_123_456_7;
+    let status = proto::RobotStatus {
+        version: proto::VERSION,
+        robot_id: "r".repeat(64),
+        stamp: at(0.0),
+        pose: Pose2 {
+            x_m: v,
+            y_m: v,
+            theta_rad: v,
+        },
+        pose_covariance: [v; 9],
+        head: proto::HeadJoints {
+            lift_rad: v,
+            yaw_rad: v,
+            pitch_rad: v,
+        },
+        fps: 1_234.567_890_123_456_7,
+        timings: vec![
+            proto::StageTiming {
+                stage: "s".repeat(proto::MAX_STAGE_NAME_BYTES),
+                ms: 12_345.678_901_234_567,
+            };
+            proto::MAX_STATUS_TIMINGS
+        ],
+        footprints: vec![
+            proto::CameraFootprint {
+                camera: Camera::Right,
+                polygon_m: vec![[v, v]; proto::MAX_FOOTPRINT_POINTS],
+            };
+            proto::MAX_STATUS_FOOTPRINTS
+        ],
+    };
+    let bytes = proto::encode(&status).len();
+    assert!(bytes <= DEFAULT_MAX_STATUS_BYTES, "{bytes}");
 }

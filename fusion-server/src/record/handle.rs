@@ -17,8 +17,13 @@ use super::{McapRecorder, Record, RecordError, RecordSummary, RecorderConfig};
 pub struct RecorderStats {
     /// Records written to a file.
     pub written: u64,
-    /// Records dropped because the queue was full (or the writer thread had stopped).
+    /// Records dropped because the queue was full, by count or by bytes (or the writer
+    /// thread had stopped).
     pub dropped: u64,
+    /// Of `dropped`, those that would have taken the queue past its byte bound.
+    pub dropped_for_bytes: u64,
+    /// Payload bytes waiting in the queue.
+    pub queued_bytes: u64,
     /// Records the writer refused or failed to write.
     pub failed: u64,
     /// The file being written.
@@ -32,6 +37,8 @@ pub struct RecorderStats {
 struct Shared {
     written: AtomicU64,
     dropped: AtomicU64,
+    dropped_for_bytes: AtomicU64,
+    queued_bytes: AtomicU64,
     failed: AtomicU64,
     current_file: Mutex<Option<PathBuf>>,
     last_error: Mutex<Option<String>>,
@@ -58,6 +65,7 @@ pub struct RecorderHandle {
     tx: Option<SyncSender<Record>>,
     thread: Option<JoinHandle<Result<RecordSummary, RecordError>>>,
     shared: Arc<Shared>,
+    max_queued_bytes: u64,
 }
 
 impl RecorderHandle {
@@ -65,6 +73,7 @@ impl RecorderHandle {
     /// with a queue of [`RecorderConfig::queue_capacity`] records.
     pub fn spawn(cfg: RecorderConfig, start: Stamp) -> Result<Self, RecordError> {
         let capacity = cfg.queue_capacity;
+        let max_queued_bytes = cfg.queue_max_bytes;
         let recorder = McapRecorder::create(cfg, start)?;
         let shared = Arc::new(Shared::default());
         *shared
@@ -81,12 +90,23 @@ impl RecorderHandle {
             tx: Some(tx),
             thread: Some(thread),
             shared,
+            max_queued_bytes,
         })
     }
 
     /// Queues `record` without blocking. Returns false, and counts the record as dropped,
     /// when the queue is full or the writer has stopped.
     pub fn send(&self, record: Record) -> bool {
+        let bytes = record.payload.len() as u64;
+        let s = &self.shared;
+        // Reserve the bytes first; give them back if the record does not go in.
+        let before = s.queued_bytes.fetch_add(bytes, Ordering::Relaxed);
+        if before + bytes > self.max_queued_bytes {
+            s.queued_bytes.fetch_sub(bytes, Ordering::Relaxed);
+            s.dropped_for_bytes.fetch_add(1, Ordering::Relaxed);
+            s.dropped.fetch_add(1, Ordering::Relaxed);
+            return false;
+        }
         let queued = match &self.tx {
             Some(tx) => match tx.try_send(record) {
                 Ok(()) => true,
@@ -94,6 +114,9 @@ impl RecorderHandle {
             },
             None => false,
         };
+        if !queued {
+            s.queued_bytes.fetch_sub(bytes, Ordering::Relaxed);
+        }
         if !queued {
             self.shared.dropped.fetch_add(1, Ordering::Relaxed);
         }
@@ -104,7 +127,12 @@ impl RecorderHandle {
     /// lose anything). Returns false, and counts the record as dropped, when the writer
     /// has stopped.
     pub fn send_waiting(&self, record: Record) -> bool {
+        let bytes = record.payload.len() as u64;
+        self.shared.queued_bytes.fetch_add(bytes, Ordering::Relaxed);
         let queued = self.tx.as_ref().is_some_and(|tx| tx.send(record).is_ok());
+        if !queued {
+            self.shared.queued_bytes.fetch_sub(bytes, Ordering::Relaxed);
+        }
         if !queued {
             self.shared.dropped.fetch_add(1, Ordering::Relaxed);
         }
@@ -117,6 +145,8 @@ impl RecorderHandle {
         RecorderStats {
             written: s.written.load(Ordering::Relaxed),
             dropped: s.dropped.load(Ordering::Relaxed),
+            dropped_for_bytes: s.dropped_for_bytes.load(Ordering::Relaxed),
+            queued_bytes: s.queued_bytes.load(Ordering::Relaxed),
             failed: s.failed.load(Ordering::Relaxed),
             current_file: s
                 .current_file
@@ -162,15 +192,18 @@ fn run(
     let mut file_seen = file_key(&recorder);
     loop {
         match rx.recv_timeout(recorder.time_until_flush(Instant::now())) {
-            Ok(record) => match recorder.write(&record) {
-                Ok(()) => {
-                    shared.written.fetch_add(1, Ordering::Relaxed);
-                }
-                Err(e) => {
-                    shared.failed.fetch_add(1, Ordering::Relaxed);
-                    shared.set_error(&e);
-                }
-            },
+            Ok(record) => {
+                let written = recorder.write(&record);
+                let bytes = record.payload.len() as u64;
+                shared.queued_bytes.fetch_sub(bytes, Ordering::Relaxed);
+                match written {
+                    Ok(()) => shared.written.fetch_add(1, Ordering::Relaxed),
+                    Err(e) => {
+                        shared.set_error(&e);
+                        shared.failed.fetch_add(1, Ordering::Relaxed)
+                    }
+                };
+            }
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
         }
@@ -248,6 +281,27 @@ mod tests {
         // What got through is in order.
         let times: Vec<Stamp> = read.messages.iter().map(|m| m.log_time).collect();
         assert!(times.windows(2).all(|w| w[0] < w[1]));
+    }
+
+    #[test]
+    fn a_queue_full_of_bytes_drops_and_counts() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let cfg = RecorderConfig {
+            queue_max_bytes: 10_000,
+            ..config(dir.path(), LogCompression::Zstd)
+        };
+        let handle = RecorderHandle::spawn(cfg, Stamp(T0_NS)).expect("recorder thread");
+        let mut big = mixed_records(1).remove(0);
+        big.payload = vec![b' '; 20_000];
+        assert!(!handle.send(big), "larger than the whole queue");
+        let stats = handle.stats();
+        assert_eq!((stats.dropped, stats.dropped_for_bytes), (1, 1));
+        assert_eq!(stats.queued_bytes, 0, "the refused bytes are given back");
+        for r in mixed_records(50) {
+            handle.send(r);
+        }
+        let summary = handle.finish().expect("finish");
+        assert!(summary.messages > 0);
     }
 
     #[test]

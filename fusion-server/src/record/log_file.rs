@@ -46,6 +46,41 @@ impl std::fmt::Debug for OpenLog {
     }
 }
 
+/// Tries per name this many alternatives (`-1`, `-2`, …) when the plain one exists.
+const UNIQUE_SUFFIXES: u32 = 999;
+
+/// Creates the log file, never overwriting one: when the name is taken (another server
+/// recording into the same directory started in the same second), the next free
+/// `{name}-{n}.mcap` is used instead.
+fn create_unique(
+    cfg: &RecorderConfig,
+    name_time: Stamp,
+    index: u32,
+) -> Result<(PathBuf, File), RecordError> {
+    let plain = log_file_name(&cfg.file_prefix, name_time, index);
+    let stem = plain.trim_end_matches(".mcap");
+    let mut n = 0;
+    loop {
+        let name = if n == 0 {
+            plain.clone()
+        } else {
+            format!("{stem}-{n}.mcap")
+        };
+        let path = cfg.dir.join(name);
+        match OpenOptions::new().write(true).create_new(true).open(&path) {
+            Ok(file) => return Ok((path, file)),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < UNIQUE_SUFFIXES => n += 1,
+            Err(source) => {
+                return Err(RecordError::Io {
+                    action: "creating log file",
+                    path,
+                    source,
+                });
+            }
+        }
+    }
+}
+
 impl OpenLog {
     pub(super) fn create(
         cfg: &RecorderConfig,
@@ -57,19 +92,7 @@ impl OpenLog {
             path: cfg.dir.clone(),
             source,
         })?;
-        let path = cfg
-            .dir
-            .join(log_file_name(&cfg.file_prefix, name_time, index));
-        // Never overwrite an existing log.
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&path)
-            .map_err(|source| RecordError::Io {
-                action: "creating log file",
-                path: path.clone(),
-                source,
-            })?;
+        let (path, file) = create_unique(cfg, name_time, index)?;
         let written_bytes = Arc::new(AtomicU64::new(0));
         let out = CountingFile {
             out: BufWriter::new(file),

@@ -184,6 +184,27 @@ mod tests {
         }
     }
 
+    /// Two recorders sharing a directory and a start second (two servers started
+    /// together) write distinct, complete files: an existing log is never overwritten.
+    #[test]
+    fn recorders_sharing_a_directory_and_a_second_get_distinct_files() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let cfg = config(dir.path(), LogCompression::Zstd);
+        let mut a = McapRecorder::create(cfg.clone(), Stamp(T0_NS)).expect("first");
+        let mut b = McapRecorder::create(cfg, Stamp(T0_NS)).expect("second");
+        let records = mixed_records(20);
+        write_all(&mut a, &records);
+        write_all(&mut b, &records);
+        let (fa, fb) = (a.finish().expect("a").files, b.finish().expect("b").files);
+        assert_eq!(fa, [dir.path().join("match-20261123T235959Z-000.mcap")]);
+        assert_eq!(fb, [dir.path().join("match-20261123T235959Z-000-1.mcap")]);
+        for f in fa.iter().chain(&fb) {
+            let read = read_log(f).expect("read log");
+            assert!(read.complete, "{f:?}");
+            assert_eq!(read.messages, expected_all(&records));
+        }
+    }
+
     #[test]
     fn a_finished_file_has_the_summary_foxglove_reads() {
         let dir = tempfile::tempdir().expect("temp dir");
@@ -448,20 +469,6 @@ mod tests {
                 .messages
                 .len(),
             2
-        );
-    }
-
-    #[test]
-    fn an_existing_log_is_never_overwritten() {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let first = McapRecorder::create(config(dir.path(), LogCompression::Zstd), Stamp(T0_NS))
-            .expect("recorder");
-        let again = McapRecorder::create(config(dir.path(), LogCompression::Zstd), Stamp(T0_NS));
-        assert!(matches!(again, Err(RecordError::Io { .. })), "{again:?}");
-        assert!(
-            read_log(&first.finish().expect("finish").files[0])
-                .expect("finish")
-                .complete
         );
     }
 }

@@ -210,6 +210,16 @@ pub fn one_error_of_each_kind() -> Vec<ValidationError> {
             field: "f",
             value: -1.0,
         },
+        ValidationError::TooMany {
+            field: "f",
+            count: 9,
+            limit: 8,
+        },
+        ValidationError::TooLong {
+            field: "f",
+            bytes: 9,
+            limit: 8,
+        },
     ];
     for e in &all {
         match e {
@@ -221,7 +231,9 @@ pub fn one_error_of_each_kind() -> Vec<ValidationError> {
             | ValidationError::ConfidenceOutOfRange(_)
             | ValidationError::OutsidePitch { .. }
             | ValidationError::StampOutOfRange { .. }
-            | ValidationError::OutOfRange { .. } => {}
+            | ValidationError::OutOfRange { .. }
+            | ValidationError::TooMany { .. }
+            | ValidationError::TooLong { .. } => {}
         }
     }
     all

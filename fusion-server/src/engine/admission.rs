@@ -1,0 +1,85 @@
+//! Who may take room in the server's state: a token bucket per robot (a flood from one id
+//! cannot crowd out the rest) and the expiry of robots gone quiet (a burst of made-up ids
+//! cannot hold the robot table for longer than the idle time).
+
+use proto::Stamp;
+
+/// A token bucket: `rate_hz` tokens a second, at most `burst` saved up. Time is passed in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TokenBucket {
+    tokens: f64,
+    at: Option<Stamp>,
+}
+
+impl TokenBucket {
+    /// A full bucket.
+    pub fn full(burst: f64) -> Self {
+        TokenBucket {
+            tokens: burst,
+            at: None,
+        }
+    }
+
+    /// Takes one token at `now` if there is one. A clock stepping back adds nothing.
+    pub fn take(&mut self, now: Stamp, rate_hz: f64, burst: f64) -> bool {
+        if let Some(at) = self.at {
+            let dt_s = now.secs_since(at).max(0.0);
+            self.tokens = (self.tokens + dt_s * rate_hz).min(burst);
+        }
+        self.at = Some(self.at.map_or(now, |a| a.max(now)));
+        if self.tokens >= 1.0 {
+            self.tokens -= 1.0;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// How robots are admitted and forgotten.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdmissionConfig {
+    /// Messages (observations and statuses together) a robot may send per second on
+    /// average; beyond it they are refused as `rate_limited`.
+    pub rate_limit_hz: f64,
+    /// Messages a robot may send at once above the average (a burst after a stall).
+    pub rate_burst: f64,
+    /// A robot heard of neither message nor liveliness change for this long is forgotten:
+    /// at once when its token is gone, and when the table is full otherwise.
+    pub robot_expiry_s: f64,
+}
+
+impl Default for AdmissionConfig {
+    fn default() -> Self {
+        AdmissionConfig {
+            rate_limit_hz: 200.0,
+            rate_burst: 200.0,
+            robot_expiry_s: 10.0,
+        }
+    }
+}
+
+/// How often the table is swept for robots gone quiet.
+pub const SWEEP_EVERY_S: f64 = 1.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bucket_gives_its_burst_then_its_rate() {
+        let t0 = Stamp(1_800_000_000_000_000_000);
+        let mut b = TokenBucket::full(5.0);
+        let taken = (0..10).filter(|_| b.take(t0, 10.0, 5.0)).count();
+        assert_eq!(taken, 5, "the burst");
+        // One second later: ten more at 10 Hz, capped by the burst of five.
+        let later = t0.offset_secs(1.0);
+        let taken = (0..10).filter(|_| b.take(later, 10.0, 5.0)).count();
+        assert_eq!(taken, 5);
+        // 0.25 s on: two and a half tokens, two whole ones.
+        let t = later.offset_secs(0.25);
+        assert_eq!((0..10).filter(|_| b.take(t, 10.0, 5.0)).count(), 2);
+        // A clock stepping back gives nothing.
+        assert!(!b.take(t0, 10.0, 5.0));
+    }
+}

@@ -1,0 +1,172 @@
+#![allow(dead_code)]
+
+//! An in-process server on real loopback Zenoh (explicit port, scouting off) and a real
+//! HTTP listener on port 0, and a Zenoh client connected to it.
+
+use fusion_server::live::{Clock, SystemClock};
+use fusion_server::net::{NetConfig, free_loopback_port};
+use fusion_server::serve::{self, ServeConfig, Shared};
+use proto::{Camera, Observation, Pose2, Stamp};
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+pub fn z(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::anyhow!("{e}")
+}
+
+pub fn obs(robot: &str, seq: u64, stamp: Stamp, x_m: f64) -> Observation {
+    Observation {
+        version: proto::VERSION,
+        robot_id: robot.into(),
+        seq,
+        camera: Camera::Left,
+        stamp,
+        position_m: [x_m, -0.3],
+        covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
+        confidence: 0.9,
+        robot_pose: Pose2::default(),
+        pixel: None,
+    }
+}
+
+pub fn now() -> Stamp {
+    SystemClock.now()
+}
+
+/// Polls `f` every 10 ms until it gives a value (20 s at most).
+pub async fn eventually<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        if let Some(v) = f() {
+            return v;
+        }
+        assert!(tokio::time::Instant::now() < deadline, "timed out: {what}");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+}
+
+/// A running server, stopped by [`TestServer::stop`].
+pub struct TestServer {
+    pub live: Shared,
+    pub endpoint: String,
+    pub http: SocketAddr,
+    pub client: zenoh::Session,
+    stop: tokio::sync::watch::Sender<bool>,
+    task: tokio::task::JoinHandle<anyhow::Result<()>>,
+}
+
+impl TestServer {
+    /// Starts a server with `cfg` (its id, Zenoh endpoint and HTTP address are set here)
+    /// and connects a client session to it.
+    pub async fn start(id: &str, cfg: ServeConfig) -> anyhow::Result<TestServer> {
+        Self::start_logged(id, cfg, None).await
+    }
+
+    /// [`TestServer::start`] with a match log.
+    pub async fn start_logged(
+        id: &str,
+        cfg: ServeConfig,
+        log: Option<Arc<dyn fusion_server::live::MatchLog>>,
+    ) -> anyhow::Result<TestServer> {
+        let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+        let cfg = ServeConfig {
+            server_id: id.into(),
+            net: NetConfig::listening(&endpoint),
+            ..cfg
+        };
+        let live = serve::shared(&cfg, Arc::new(SystemClock), log)?;
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+        let http = listener.local_addr()?;
+        let (stop, mut stop_rx) = tokio::sync::watch::channel(false);
+        let task = tokio::spawn(serve::serve(cfg, live.clone(), listener, async move {
+            let _ = stop_rx.wait_for(|s| *s).await;
+        }));
+        let client = NetConfig::connecting(&endpoint).open().await?;
+        Ok(TestServer {
+            live,
+            endpoint,
+            http,
+            client,
+            stop,
+            task,
+        })
+    }
+
+    /// Puts `payload` on `key` from the client (waits for the link on the first call).
+    pub async fn put(
+        &self,
+        key: &str,
+        payload: impl Into<zenoh::bytes::ZBytes>,
+    ) -> anyhow::Result<()> {
+        self.client.put(key, payload).await.map_err(z)
+    }
+
+    /// Publishes good observations from `robot` until the server has accepted one.
+    pub async fn until_accepted(&self, robot: &str) -> anyhow::Result<()> {
+        let key = format!("rf/robots/{robot}/obs");
+        let mut seq = 0;
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+        loop {
+            let accepted = self.live.with_engine(|e| {
+                e.robots(now())
+                    .iter()
+                    .any(|r| r.robot_id == robot && r.observations_accepted > 0)
+            });
+            if accepted {
+                return Ok(());
+            }
+            anyhow::ensure!(
+                tokio::time::Instant::now() < deadline,
+                "{robot} never accepted"
+            );
+            self.put(&key, proto::encode(&obs(robot, seq, now(), 0.5)))
+                .await?;
+            seq += 1;
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+
+    /// The count of `rf_messages_rejected_total{kind,reason}` in /metrics (0 when absent).
+    pub fn rejected(&self, kind: &str, reason: &str) -> u64 {
+        let line = format!("rf_messages_rejected_total{{kind=\"{kind}\",reason=\"{reason}\"}} ");
+        self.live
+            .metrics_text()
+            .lines()
+            .find_map(|l| l.strip_prefix(&line).and_then(|v| v.parse().ok()))
+            .unwrap_or(0)
+    }
+
+    /// A metric's value (first line starting with `name `), if present.
+    pub fn metric(&self, name: &str) -> Option<f64> {
+        let prefix = format!("{name} ");
+        self.live
+            .metrics_text()
+            .lines()
+            .find_map(|l| l.strip_prefix(&prefix).and_then(|v| v.parse().ok()))
+    }
+
+    /// A GET over a fresh connection: the status code and the body.
+    pub async fn get(&self, path: &str) -> anyhow::Result<(u16, String)> {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let mut c = tokio::net::TcpStream::connect(self.http).await?;
+        let req = format!("GET {path} HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n");
+        c.write_all(req.as_bytes()).await?;
+        let mut out = Vec::new();
+        tokio::time::timeout(Duration::from_secs(10), c.read_to_end(&mut out)).await??;
+        let text = String::from_utf8_lossy(&out).into_owned();
+        let code = text
+            .split(' ')
+            .nth(1)
+            .and_then(|c| c.parse().ok())
+            .unwrap_or(0);
+        let body = text.split_once("\r\n\r\n").map(|(_, b)| b.to_string());
+        Ok((code, body.unwrap_or_default()))
+    }
+
+    pub async fn stop(self) -> anyhow::Result<()> {
+        let _ = self.stop.send(true);
+        self.task.await??;
+        self.client.close().await.map_err(z)
+    }
+}
