@@ -76,6 +76,7 @@ pub mod chessboard;
 pub mod classifier;
 pub mod components;
 pub mod detect;
+mod detect_config;
 pub mod gray;
 pub mod hog;
 pub mod homography;
