@@ -333,48 +333,45 @@ impl Detector {
                     found.push((Some(view), circles, hull.is_some()));
                 }
                 None => {
-                    let mut circles: Vec<Circle>;
-                    {
-                        let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
-                        let x0 = b.x_min.saturating_sub(m);
-                        let y0 = b.y_min.saturating_sub(m);
-                        let x1 = (b.x_max + m).min(mask.width() - 1);
-                        let y1 = (b.y_max + m).min(mask.height() - 1);
-                        let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
-                        // Shrunk so that the ball's radius is within the Hough range.
-                        let k = (f64::from(size) / (1.8 * self.config.hough.r_max_px))
-                            .ceil()
-                            .max(1.0) as u32;
-                        let roi = shrink(&crop(&mask, x0, y0, w, h)?, k);
-                        let patterned = match (hull, &self.white_lut) {
-                            (Some(hull), Some(lut)) => Some((
-                                shrink(&crop_lut(image, lut, x0, y0, w, h)?, k),
-                                Hull {
-                                    centre_px: [
-                                        (hull.centre_px[0] - f64::from(x0)) / f64::from(k),
-                                        (hull.centre_px[1] - f64::from(y0)) / f64::from(k),
-                                    ],
-                                    radius_px: hull.radius_px / f64::from(k),
-                                },
-                            )),
-                            _ => None,
-                        };
-                        let shift = |c: Circle| {
-                            let c = unshrink(c, k);
-                            Circle {
-                                center_px: [
-                                    c.center_px[0] + f64::from(x0),
-                                    c.center_px[1] + f64::from(y0),
+                    let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
+                    let x0 = b.x_min.saturating_sub(m);
+                    let y0 = b.y_min.saturating_sub(m);
+                    let x1 = (b.x_max + m).min(mask.width() - 1);
+                    let y1 = (b.y_max + m).min(mask.height() - 1);
+                    let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
+                    // Shrunk so that the ball's radius is within the Hough range.
+                    let k = (f64::from(size) / (1.8 * self.config.hough.r_max_px))
+                        .ceil()
+                        .max(1.0) as u32;
+                    let roi = shrink(&crop(&mask, x0, y0, w, h)?, k);
+                    let patterned = match (hull, &self.white_lut) {
+                        (Some(hull), Some(lut)) => Some((
+                            shrink(&crop_lut(image, lut, x0, y0, w, h)?, k),
+                            Hull {
+                                centre_px: [
+                                    (hull.centre_px[0] - f64::from(x0)) / f64::from(k),
+                                    (hull.centre_px[1] - f64::from(y0)) / f64::from(k),
                                 ],
-                                ..c
-                            }
-                        };
-                        circles = self
-                            .circles(roi, patterned)?
-                            .into_iter()
-                            .map(shift)
-                            .collect();
-                    }
+                                radius_px: hull.radius_px / f64::from(k),
+                            },
+                        )),
+                        _ => None,
+                    };
+                    let shift = |c: Circle| {
+                        let c = unshrink(c, k);
+                        Circle {
+                            center_px: [
+                                c.center_px[0] + f64::from(x0),
+                                c.center_px[1] + f64::from(y0),
+                            ],
+                            ..c
+                        }
+                    };
+                    let mut circles: Vec<Circle> = self
+                        .circles(roi, patterned)?
+                        .into_iter()
+                        .map(shift)
+                        .collect();
                     if circles.is_empty() {
                         circles.extend(own);
                     }

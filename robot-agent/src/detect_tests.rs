@@ -3,6 +3,8 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
+use crate::kmeans::ColourCheckConfig;
+use crate::two_colour::PatternConfig;
 
 const W: u32 = 320;
 const H: u32 = 180;
