@@ -6,7 +6,6 @@
 #![allow(clippy::unwrap_used)]
 
 #[path = "../src/ros_msg_fixtures.rs"]
-#[allow(dead_code)]
 mod fx;
 
 use proto::net::{NetConfig, free_loopback_port};

@@ -78,8 +78,8 @@ fn convolve(frame: &Frame, kernel: &[(i64, i64, f32)]) -> Frame {
                 let sx = (x + dx).clamp(0, w - 1);
                 let sy = (y + dy).clamp(0, h - 1);
                 let i = 3 * (sy * w + sx) as usize;
-                for c in 0..3 {
-                    acc[c] += weight * f32::from(frame.rgb[i + c]);
+                for (a, &v) in acc.iter_mut().zip(&frame.rgb[i..i + 3]) {
+                    *a += weight * f32::from(v);
                 }
             }
             let o = 3 * (y * w + x) as usize;

@@ -97,10 +97,10 @@ fn blend(frame: &mut Frame, x: i64, y: i64, colour: [f64; 3], alpha: f64) {
         return;
     }
     let i = 3 * (y as usize * frame.width as usize + x as usize);
-    for c in 0..3 {
-        let old = f64::from(frame.rgb[i + c]);
-        let new = 255.0 * colour[c].clamp(0.0, 1.0);
-        frame.rgb[i + c] = (old + (new - old) * alpha.clamp(0.0, 1.0) + 0.5) as u8;
+    for (px, c) in frame.rgb[i..i + 3].iter_mut().zip(colour) {
+        let old = f64::from(*px);
+        let new = 255.0 * c.clamp(0.0, 1.0);
+        *px = (old + (new - old) * alpha.clamp(0.0, 1.0) + 0.5) as u8;
     }
 }
 

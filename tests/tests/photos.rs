@@ -3,6 +3,8 @@
 //! figures `evaluate --photos` reports in docs/accuracy.md; a regression in the candidate
 //! stage or the shipped classifier fails here.
 
+#![allow(clippy::unwrap_used)]
+
 use std::path::{Path, PathBuf};
 use system_tests::photo_eval::{PhotoEvalConfig, evaluate_photos};
 use system_tests::photo_set::{PhotoSetSpec, write_photo_set};
