@@ -1,38 +1,15 @@
 //! The server's Zenoh face over a real loopback session: observations in (good and bad),
 //! states out, queries answered, liveliness declared.
 
+#[path = "hardening/server.rs"]
+mod server;
+
 use fusion_server::live::{Clock, SystemClock};
 use fusion_server::net::{NetConfig, free_loopback_port};
 use fusion_server::serve::{self, ServeConfig};
-use proto::{Camera, Observation, Pose2, Stamp};
+use server::{eventually, obs};
 use std::sync::Arc;
 use std::time::Duration;
-
-fn obs(robot: &str, seq: u64, stamp: Stamp, x_m: f64) -> Observation {
-    Observation {
-        version: proto::VERSION,
-        robot_id: robot.into(),
-        seq,
-        camera: Camera::Left,
-        stamp,
-        position_m: [x_m, -0.3],
-        covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
-        confidence: 0.9,
-        robot_pose: Pose2::default(),
-        pixel: None,
-    }
-}
-
-async fn eventually<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
-    loop {
-        if let Some(v) = f() {
-            return v;
-        }
-        assert!(tokio::time::Instant::now() < deadline, "timed out: {what}");
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-}
 
 #[tokio::test(flavor = "multi_thread")]
 async fn observations_in_states_and_answers_out() -> anyhow::Result<()> {

@@ -86,6 +86,27 @@ pub fn load_gray(path: &Path) -> Result<GrayImage, ImageIoError> {
     decode_gray(&read(path)?).map_err(|e| with_path(path, e))
 }
 
+/// The PNG and JPEG files of a folder (by extension, any case), sorted by name.
+pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, ImageIoError> {
+    let read = |source| ImageIoError::Read {
+        path: dir.to_path_buf(),
+        source,
+    };
+    let mut paths = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(read)? {
+        let path = entry.map_err(read)?.path();
+        let image = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"));
+        if image {
+            paths.push(path);
+        }
+    }
+    paths.sort();
+    Ok(paths)
+}
+
 /// Loads a PNG or JPEG file as an RGB image.
 pub fn load_rgb(path: &Path) -> Result<RgbImage, ImageIoError> {
     decode_rgb(&read(path)?).map_err(|e| with_path(path, e))

@@ -20,7 +20,6 @@ const GROW: u8 = 1;
 /// The seed and growth windows compiled into one lookup table.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SeededLut {
-    seed: MaskLut,
     /// Per colour cell: 2 seed, 1 growth only, 0 neither.
     classes: Vec<u8>,
 }
@@ -35,12 +34,7 @@ impl SeededLut {
             .zip(grow.cells())
             .map(|(&s, &g)| if s != 0 { SEED } else { g * GROW })
             .collect();
-        Ok(SeededLut { seed, classes })
-    }
-
-    /// The strict window's table.
-    pub fn seed_lut(&self) -> &MaskLut {
-        &self.seed
+        Ok(SeededLut { classes })
     }
 
     /// A pixel's class: 2 seed, 1 growth only, 0 neither.

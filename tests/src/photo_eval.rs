@@ -52,21 +52,6 @@ fn frame_of(image: RgbImage) -> Frame {
     }
 }
 
-/// PNG and JPEG files of a folder, sorted.
-pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|f| {
-            f.extension()
-                .and_then(|x| x.to_str())
-                .is_some_and(|x| matches!(x.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
-        })
-        .collect();
-    files.sort();
-    Ok(files)
-}
-
 /// Scores one photo into `eval`.
 fn score(
     eval: &mut LabelEval,
@@ -105,7 +90,7 @@ pub fn evaluate_photos(
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<PhotoSetResult>> {
     let detector = Detector::new(*detector_cfg)?;
-    let background_files = image_files(&cfg.backgrounds)?;
+    let background_files = robot_agent::image_io::image_files(&cfg.backgrounds)?;
     let mut pictures = Vec::new();
     for p in &background_files {
         pictures.push(frame_of(robot_agent::image_io::load_rgb(p)?));
@@ -158,7 +143,7 @@ pub fn evaluate_photos(
     }
     // Real photos with labelled balls.
     let (mut eval, mut ms) = (LabelEval::new(min_probability), Vec::new());
-    for p in image_files(&cfg.real_balls.join("images"))? {
+    for p in robot_agent::image_io::image_files(&cfg.real_balls.join("images"))? {
         let image = robot_agent::image_io::load_rgb(&p)?;
         let stem = p.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
         let xml_path = cfg.real_balls.join("labels").join(format!("{stem}.xml"));

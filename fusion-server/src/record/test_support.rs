@@ -35,6 +35,35 @@ pub(crate) fn observation_json(robot: &str, seq: u64, stamp: Stamp) -> Vec<u8> {
     })
 }
 
+/// An observation of `robot` captured `lag_s` before `at`, as logged at `at`.
+pub(crate) fn logged_observation(
+    robot: &str,
+    seq: u64,
+    at: Stamp,
+    lag_s: f64,
+    position_m: [f64; 2],
+) -> LogMessage {
+    let obs = Observation {
+        version: proto::VERSION,
+        robot_id: robot.into(),
+        seq,
+        camera: Camera::Left,
+        stamp: at.offset_secs(-lag_s),
+        position_m,
+        covariance_m2: [1e-4, 0.0, 0.0, 1e-4],
+        confidence: 0.9,
+        robot_pose: Pose2::default(),
+        pixel: None,
+    };
+    LogMessage {
+        topic: format!("rf/robots/{robot}/obs"),
+        schema_name: "Observation".into(),
+        log_time: at,
+        publish_time: at,
+        data: proto::encode(&obs),
+    }
+}
+
 /// A record on `topic` logged `offset_ns` after [`T0_NS`] and published 1 ms earlier.
 pub(crate) fn record(
     topic: &str,

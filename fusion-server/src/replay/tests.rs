@@ -1,31 +1,12 @@
 use super::*;
-use crate::record::test_support::T0_NS;
-use proto::{Camera, Observation, Pose2};
+use crate::record::test_support::{T0_NS, logged_observation};
+use proto::Observation;
 
 const T0: Stamp = Stamp(T0_NS);
 
 /// An observation of `robot` captured 20 ms before `log_s`, as logged at `log_s`.
 fn obs_message(robot: &str, seq: u64, log_s: f64, position_m: [f64; 2]) -> LogMessage {
-    let at = T0.offset_secs(log_s);
-    let obs = Observation {
-        version: proto::VERSION,
-        robot_id: robot.into(),
-        seq,
-        camera: Camera::Left,
-        stamp: at.offset_secs(-0.02),
-        position_m,
-        covariance_m2: [1e-4, 0.0, 0.0, 1e-4],
-        confidence: 0.9,
-        robot_pose: Pose2::default(),
-        pixel: None,
-    };
-    LogMessage {
-        topic: format!("rf/robots/{robot}/obs"),
-        schema_name: "Observation".into(),
-        log_time: at,
-        publish_time: at,
-        data: proto::encode(&obs),
-    }
+    logged_observation(robot, seq, T0.offset_secs(log_s), 0.02, position_m)
 }
 
 /// Half a second of a ball rolling along x, seen by two robots at 50 Hz each.

@@ -4,9 +4,10 @@
 use super::*;
 use crate::engine::{Engine, EngineConfig};
 use crate::mcap_read::LogMessage;
+use crate::record::test_support::logged_observation;
 use crate::replay_live::{Deliver, PlayConfig, play};
 use futures_util::future::BoxFuture;
-use proto::{Camera, KeySpace, Observation, Pose2, Stamp};
+use proto::{KeySpace, Stamp};
 use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
@@ -26,25 +27,7 @@ fn log() -> Vec<LogMessage> {
             let t_s = i as f64 / 20.0;
             let robot = if i % 2 == 0 { "miro1" } else { "miro2" };
             let at = T0.offset_secs(t_s);
-            let obs = Observation {
-                version: proto::VERSION,
-                robot_id: robot.into(),
-                seq: i,
-                camera: Camera::Left,
-                stamp: at.offset_secs(-0.03),
-                position_m: [ball_x_m(t_s - 0.03), 0.2],
-                covariance_m2: [1e-4, 0.0, 0.0, 1e-4],
-                confidence: 0.9,
-                robot_pose: Pose2::default(),
-                pixel: None,
-            };
-            LogMessage {
-                topic: format!("rf/robots/{robot}/obs"),
-                schema_name: "Observation".into(),
-                log_time: at,
-                publish_time: at,
-                data: proto::encode(&obs),
-            }
+            logged_observation(robot, i, at, 0.03, [ball_x_m(t_s - 0.03), 0.2])
         })
         .collect()
 }

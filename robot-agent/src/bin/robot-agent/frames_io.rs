@@ -64,17 +64,7 @@ pub struct StoredFrame {
 
 /// The PNG and JPEG files of a folder, sorted by name.
 pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg"))
-        })
-        .collect();
-    paths.sort();
-    Ok(paths)
+    Ok(robot_agent::image_io::image_files(dir)?)
 }
 
 /// Reads an image folder's index; images are loaded lazily by [`load_image`].
