@@ -103,7 +103,7 @@ pub fn sim_track(run: &sim::SimRun) -> Vec<TrackSample> {
 pub fn sim_source(run: &sim::SimRun) -> String {
     format!(
         "SIMULATED, not a real recording: ground truth of this project's simulator (sim crate), \
-         scenario {} seed {}, {:.0} s, written by `cargo run --release -p system-tests --bin sim_track -- \
+         scenario {} seed {}, {:.0} s, written by `cargo run --release -p harness --bin sim_track -- \
          --scenario {} --seed {}`",
         run.scenario, run.seed, run.duration_s, run.scenario, run.seed
     )

@@ -3,8 +3,8 @@
 //! in the fusion core fails here.
 
 use sim::score::Summary;
-use system_tests::eval::{evaluate, report};
-use system_tests::report::Row;
+use harness::eval::{evaluate, report};
+use harness::report::Row;
 
 const SEEDS: u64 = 3;
 

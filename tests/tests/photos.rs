@@ -6,8 +6,8 @@
 #![allow(clippy::unwrap_used)]
 
 use std::path::{Path, PathBuf};
-use system_tests::photo_eval::{PhotoEvalConfig, evaluate_photos};
-use system_tests::photo_set::{PhotoSetSpec, write_photo_set};
+use harness::photo_eval::{PhotoEvalConfig, evaluate_photos};
+use harness::photo_set::{PhotoSetSpec, write_photo_set};
 
 fn data(dir: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(dir)

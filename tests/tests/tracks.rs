@@ -7,7 +7,7 @@ use proto::Pitch;
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
-use system_tests::track_fixtures::Roll;
+use harness::track_fixtures::Roll;
 
 fn evaluate(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_evaluate"))

@@ -3,8 +3,8 @@
 //! measured by `evaluate --vision` and reported in docs/accuracy.md); a regression in the
 //! detector, the calibration or the projection fails here.
 
-use system_tests::vision::{FrameStat, VisionConfig, evaluate_vision_run, perceive};
-use system_tests::vision_report::Detection;
+use harness::vision::{FrameStat, VisionConfig, evaluate_vision_run, perceive};
+use harness::vision_report::Detection;
 
 #[test]
 fn one_rendered_seed_scenario_is_found_and_fused() {

@@ -21,7 +21,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-use system_tests::bench::*;
+use harness::bench::*;
 
 #[derive(Debug, Parser)]
 struct Args {
@@ -557,7 +557,7 @@ async fn run(args: Args) -> Result<()> {
         std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
     }
     if let Some(p) = &args.doc {
-        system_tests::report::rewrite_section(p, &table)?;
+        harness::report::rewrite_section(p, &table)?;
     }
     Ok(())
 }

@@ -11,9 +11,9 @@ mod tracks_cmd;
 use anyhow::Context;
 use clap::Parser;
 use std::path::PathBuf;
-use system_tests::vision::{VisionConfig, evaluate_vision, shipped_lens_error};
-use system_tests::vision_report::{self, CalibrationCheck};
-use system_tests::{eval, plots, report};
+use harness::vision::{VisionConfig, evaluate_vision, shipped_lens_error};
+use harness::vision_report::{self, CalibrationCheck};
+use harness::{eval, plots, report};
 
 #[derive(Debug, Parser)]
 #[command(about = "Evaluate the fusion core against the seed's method and an oracle")]
@@ -182,7 +182,7 @@ fn doc_section(
 
 /// The command line that reproduces a run, for the generated sections.
 fn command(args: &Args, names: &[&str], seeds: u64) -> String {
-    let mut cmd = String::from("cargo run --release -p system-tests --bin evaluate --");
+    let mut cmd = String::from("cargo run --release -p harness --bin evaluate --");
     if args.vision {
         cmd.push_str(" --vision");
     }
@@ -261,7 +261,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
 
 /// `--photos`: the detector on randomised held-out photos and real photographs.
 fn run_photos(args: &Args) -> anyhow::Result<()> {
-    use system_tests::photo_eval::{self, PhotoEvalConfig};
+    use harness::photo_eval::{self, PhotoEvalConfig};
     let cfg = PhotoEvalConfig {
         count: args.photo_count,
         seed: args.photo_seed,
@@ -283,7 +283,7 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
     }
     if let Some(path) = &args.doc {
         let mut cmd =
-            String::from("cargo run --release -p system-tests --bin evaluate -- --photos");
+            String::from("cargo run --release -p harness --bin evaluate -- --photos");
         if args.photo_count != 400 {
             cmd.push_str(&format!(" --photo-count {}", args.photo_count));
         }

@@ -5,8 +5,8 @@
 use anyhow::Context;
 use clap::Parser;
 use std::path::PathBuf;
-use system_tests::track_fixtures::{sim_source, sim_track};
-use system_tests::tracks::to_csv;
+use harness::track_fixtures::{sim_source, sim_track};
+use harness::tracks::to_csv;
 
 #[derive(Debug, Parser)]
 #[command(about = "Write a simulated run's ball ground truth as a track CSV")]

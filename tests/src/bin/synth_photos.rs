@@ -6,7 +6,7 @@
 use clap::Parser;
 use std::path::PathBuf;
 use std::time::Instant;
-use system_tests::photo_set::{PhotoSetSpec, write_photo_set};
+use harness::photo_set::{PhotoSetSpec, write_photo_set};
 
 #[derive(Debug, Parser)]
 #[command(about = "Write randomised labelled ball photos (images/ and YOLO labels/)")]
@@ -28,7 +28,7 @@ struct Args {
     /// Kinds of background to go round: carpet, rendered, photos (default: every kind
     /// available).
     #[arg(long, value_delimiter = ',')]
-    kinds: Vec<system_tests::photo_set::BackgroundKind>,
+    kinds: Vec<harness::photo_set::BackgroundKind>,
     /// The folder to write (`images/`, `labels/`, `manifest.json`).
     #[arg(long)]
     out: PathBuf,

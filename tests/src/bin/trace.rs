@@ -4,7 +4,7 @@
 use clap::Parser;
 use fusion_server::core::Fusion;
 use sim::score::TICK_S;
-use system_tests::methods::fusion_config;
+use harness::methods::fusion_config;
 
 #[derive(Debug, Parser)]
 struct Args {

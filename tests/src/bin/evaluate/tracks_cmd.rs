@@ -4,11 +4,11 @@
 use anyhow::Context;
 use proto::{Pitch, WallSide};
 use std::path::{Path, PathBuf};
-use system_tests::plot::write_png;
-use system_tests::track_eval::{TrackSetup, evaluate_tracks};
-use system_tests::track_obs::ObserverSetup;
-use system_tests::track_report::{self, FileSummary, SECTION_BEGIN, SECTION_END};
-use system_tests::tracks::{self, ReadOptions, TimeUnit, Track};
+use harness::plot::write_png;
+use harness::track_eval::{TrackSetup, evaluate_tracks};
+use harness::track_obs::ObserverSetup;
+use harness::track_report::{self, FileSummary, SECTION_BEGIN, SECTION_END};
+use harness::tracks::{self, ReadOptions, TimeUnit, Track};
 
 /// Where a track's coordinates start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -144,7 +144,7 @@ impl TrackArgs {
             .map(|p| p.display().to_string())
             .collect();
         let mut cmd = format!(
-            "cargo run --release -p system-tests --bin evaluate -- --tracks {}",
+            "cargo run --release -p harness --bin evaluate -- --tracks {}",
             files.join(",")
         );
         if out.seeds != 1 {
@@ -250,7 +250,7 @@ pub fn run(args: &TrackArgs, out: &Outputs) -> anyhow::Result<()> {
     }
     if let Some(path) = out.doc {
         let section = doc_section(args, out, &rep, &text, all.len(), secs);
-        system_tests::report::rewrite_section_between(path, SECTION_BEGIN, SECTION_END, &section)?;
+        harness::report::rewrite_section_between(path, SECTION_BEGIN, SECTION_END, &section)?;
         eprintln!("updated {}", path.display());
     }
     std::fs::create_dir_all(out.plots)
