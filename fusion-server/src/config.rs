@@ -1,8 +1,11 @@
-//! The server's configuration file (TOML). Every field is optional; command-line flags
-//! override the file, and the file overrides the defaults.
+//! The server's settings: one type for the configuration file (TOML) and the command line
+//! (`crate::args::ServeArgs` writes its flags over the file's). Every field is optional;
+//! flags override the file, and the file overrides the defaults. [`Settings::apply`] checks
+//! them all in one place.
 
 use crate::core::FusionConfig;
 use crate::net::NetConfig;
+use crate::record::RecorderConfig;
 use crate::serve::ServeConfig;
 use proto::Pitch;
 use serde::Deserialize;
@@ -39,6 +42,24 @@ pub struct RecordFile {
     pub max_minutes: Option<f64>,
     /// Finish a chunk at least this often (bounds what a crash can lose).
     pub flush_interval_s: Option<f64>,
+}
+
+impl RecordFile {
+    /// The match log's settings, when a folder is given; checked.
+    pub fn recorder(&self) -> Result<Option<RecorderConfig>, ConfigError> {
+        let Some(dir) = &self.dir else {
+            return Ok(None);
+        };
+        let mut r = RecorderConfig::new(dir);
+        r.max_bytes = self.max_mb.map(|mb| (mb * 1e6) as u64);
+        r.max_duration_s = self.max_minutes.map(|m| m * 60.0);
+        if let Some(f) = self.flush_interval_s {
+            r.flush_interval_s = f;
+        }
+        r.validate()
+            .map_err(|e| ConfigError::Invalid(format!("record: {e}")))?;
+        Ok(Some(r))
+    }
 }
 
 /// `[fusion]`: tuning of the fusion core that an installation may need to change.
@@ -147,8 +168,11 @@ pub struct ClockFile {
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct FileConfig {
+pub struct Settings {
     pub server_id: Option<String>,
+    /// Token the control endpoints require as `Authorization: Bearer TOKEN`; without one
+    /// only this machine may use them.
+    pub control_token: Option<String>,
     pub prefix: Option<String>,
     /// HTTP address, e.g. `127.0.0.1:8080`.
     pub http: Option<String>,
@@ -167,7 +191,7 @@ pub struct FileConfig {
     pub clock: ClockFile,
 }
 
-impl FileConfig {
+impl Settings {
     pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
         toml::from_str(text).map_err(|source| ConfigError::Parse {
             path: path.to_path_buf(),
@@ -197,6 +221,14 @@ impl FileConfig {
             h.parse::<std::net::SocketAddr>()
                 .map_err(|e| ConfigError::Invalid(format!("http {h:?}: {e}")))?;
             cfg.http = h.clone();
+        }
+        if let Some(t) = &self.control_token {
+            if t.len() < 8 || !t.chars().all(|c| c.is_ascii_graphic()) {
+                return Err(ConfigError::Invalid(
+                    "the control token must be at least 8 visible ASCII characters".into(),
+                ));
+            }
+            cfg.control_token = Some(t.clone());
         }
         if let Some(p) = &self.prefix {
             proto::KeySpace::new(p).map_err(|e| ConfigError::Invalid(e.to_string()))?;
@@ -320,7 +352,7 @@ max_mb = 200
 
     #[test]
     fn a_full_file_applies() -> Result<(), ConfigError> {
-        let f = FileConfig::parse(EXAMPLE, Path::new("x.toml"))?;
+        let f = Settings::parse(EXAMPLE, Path::new("x.toml"))?;
         let mut cfg = ServeConfig::default();
         f.apply(&mut cfg)?;
         assert_eq!(cfg.server_id, "pitch-a");
@@ -352,7 +384,7 @@ max_mb = 200
             .collect();
         assert!(blocks.len() >= 2, "the guide has its examples");
         for b in blocks {
-            let f = FileConfig::parse(b, Path::new("docs/operations.md"))?;
+            let f = Settings::parse(b, Path::new("docs/operations.md"))?;
             f.apply(&mut ServeConfig::default())?;
         }
         Ok(())
@@ -371,7 +403,7 @@ max_mb = 200
         let text = "[pitch]\nversion = 1\nlength_m = 5.0\nwidth_m = 3.0\n\
                     walls = [\"x_max\", \"x_min\"]\nwall_restitution = 0.8\nball_radius_m = 0.05\n";
         let mut cfg = ServeConfig::default();
-        FileConfig::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
+        Settings::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
         assert_eq!(cfg.engine.fusion.tracker.motion.restitution, 0.8);
         let t0 = Stamp(1_800_000_000_000_000_000);
         let mut fusion = Fusion::new(cfg.engine.fusion.clone());
@@ -400,7 +432,7 @@ max_mb = 200
     fn a_partial_pitch_table_keeps_the_other_defaults() -> Result<(), ConfigError> {
         let text = "[pitch]\nlength_m = 5.0\nwalls = [\"y_max\", \"y_min\"]\n";
         let mut cfg = ServeConfig::default();
-        FileConfig::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
+        Settings::parse(text, Path::new("x.toml"))?.apply(&mut cfg)?;
         let want = Pitch {
             length_m: 5.0,
             walls: vec![proto::WallSide::YMax, proto::WallSide::YMin],
@@ -414,7 +446,7 @@ max_mb = 200
     fn mistakes_are_reported() {
         let p = Path::new("x.toml");
         assert!(matches!(
-            FileConfig::parse("colour = 3", p),
+            Settings::parse("colour = 3", p),
             Err(ConfigError::Parse { .. })
         ));
         let mut cfg = ServeConfig::default();
@@ -438,7 +470,7 @@ max_mb = 200
             "[clock]\noffset_warn_s = 0",
             "[limits]\nws_send_timeout_s = 0",
         ] {
-            let f = FileConfig::parse(bad, p).expect(bad);
+            let f = Settings::parse(bad, p).expect(bad);
             assert!(
                 matches!(f.apply(&mut cfg), Err(ConfigError::Invalid(_))),
                 "{bad}"

@@ -12,6 +12,7 @@
 //! including logs cut short by a crash; [`replay`] re-fuses them offline and
 //! [`replay_live`] plays them as if live, under the control of the coach's page.
 
+pub mod args;
 pub mod config;
 pub mod core;
 pub mod engine;
@@ -26,6 +27,4 @@ pub mod query;
 pub mod record;
 pub mod replay;
 pub mod replay_live;
-pub mod scoring;
 pub mod serve;
-pub mod simrobots;

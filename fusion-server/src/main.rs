@@ -1,9 +1,6 @@
-//! `fusion-server`: the team ball server, its one-command demo, simulated robots, match
-//! simulation to a log file, and replay of match logs.
+//! `fusion-server`: the team ball server, and replay of match logs.
 
 mod cli;
-mod demo;
-mod demo_agents;
 mod replay_cmd;
 
 use anyhow::Result;

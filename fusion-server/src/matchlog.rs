@@ -7,17 +7,12 @@ use proto::Stamp;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-/// The schemas a match log uses, by name: the wire messages and the simulator's truth.
+/// The schemas a match log uses, by name: the wire messages.
 pub fn schemas() -> HashMap<String, Arc<Schema>> {
-    let mut out: HashMap<String, Arc<Schema>> = crate::record::proto_schemas()
+    crate::record::proto_schemas()
         .into_iter()
         .map(|s| (s.name.clone(), s))
-        .collect();
-    for (name, schema) in sim::truth_log::truth_schemas() {
-        let json = serde_json::to_vec_pretty(&schema).unwrap_or_default();
-        out.insert(name.to_string(), Arc::new(Schema::new(name, json)));
-    }
-    out
+        .collect()
 }
 
 fn schema_name(kind: LogKind) -> &'static str {
@@ -101,9 +96,21 @@ pub struct RecorderSink {
 
 impl RecorderSink {
     pub fn create(cfg: RecorderConfig, start: Stamp) -> Result<Self, RecordError> {
+        Self::with_schemas(cfg, start, Vec::new())
+    }
+
+    /// [`create`](Self::create), with schemas for channels beyond the wire messages (a
+    /// simulator's ground truth, say): records naming them carry them.
+    pub fn with_schemas(
+        cfg: RecorderConfig,
+        start: Stamp,
+        extra: Vec<Arc<Schema>>,
+    ) -> Result<Self, RecordError> {
+        let mut schemas = schemas();
+        schemas.extend(extra.into_iter().map(|s| (s.name.clone(), s)));
         Ok(RecorderSink {
             handle: RecorderHandle::spawn(cfg, start)?,
-            schemas: schemas(),
+            schemas,
             sent: 0,
         })
     }
@@ -137,28 +144,4 @@ impl crate::replay::ReplaySink for RecorderSink {
             payload: payload.to_vec(),
         });
     }
-}
-
-/// Writes a simulated match as a match log: every observation on its robot's key at the
-/// time it reaches the server, and the simulator's ground truth.
-pub fn write_simulated(
-    run: &sim::SimRun,
-    keys: &proto::KeySpace,
-    sink: &mut dyn crate::replay::ReplaySink,
-) -> Result<usize, proto::KeyError> {
-    let truth = sim::truth_log::truth_messages(run);
-    let mut out: Vec<(Stamp, String, &str, Vec<u8>)> = Vec::with_capacity(truth.len());
-    for m in truth {
-        out.push((m.log_time, m.topic.to_string(), m.schema_name, m.json));
-    }
-    for d in &run.deliveries {
-        let key = keys.robot_obs(&d.obs.robot_id)?;
-        out.push((d.arrival, key, "Observation", proto::encode(&d.obs)));
-    }
-    // Stable: truth before observations at equal times, each in its own order.
-    out.sort_by_key(|m| m.0);
-    for (at, topic, schema, payload) in &out {
-        sink.write(topic, schema, *at, payload);
-    }
-    Ok(out.len())
 }

@@ -1,9 +1,9 @@
 //! Offline replay of a match log: the recorded observations and statuses go through the same
 //! engine at the times they were received, the states are recomputed at the times they were
-//! published (or at a fixed rate when the log has none) and compared with the recorded ones,
-//! and when the log carries the simulator's ground truth the result is scored the way the
-//! evaluation scores it. States may also be asked for at chosen times, or on a grid through
-//! a chosen stamp and on past the end of the log ([`ReplayOptions`]).
+//! published (or at a fixed rate when the log has none) and compared with the recorded ones.
+//! States may also be asked for at chosen times, or on a grid through a chosen stamp and on
+//! past the end of the log ([`ReplayOptions`]). Channels replay does not know (a simulator's
+//! ground truth, say) are copied through and counted.
 //!
 //! A state at time T is the engine's estimate at T after every message received at or
 //! before T: what the live server would have published at T.
@@ -11,11 +11,7 @@
 use crate::core::FusionCounters;
 use crate::engine::{Engine, EngineConfig};
 use crate::mcap_read::LogMessage;
-use crate::scoring::run_fusion;
 use proto::{BallState, KeySpace, ModelParams, Stamp};
-use sim::score::{Summary, score, tick_count};
-use sim::truth_log::{TruthLogBuilder, TruthLogError};
-use sim::{Delivery, ObsKind};
 use std::collections::BTreeMap;
 
 mod seek;
@@ -96,8 +92,6 @@ pub struct ReplayReport {
     pub other: u64,
     /// Match time covered, from the first to the last message.
     pub span_s: f64,
-    /// The evaluation's figures, when the log carries ground truth.
-    pub accuracy: Option<Summary>,
 }
 
 /// Replay options. The states are computed at every recorded state (and compared), and:
@@ -136,8 +130,6 @@ impl Default for ReplayOptions {
 pub enum ReplayError {
     #[error("bad key prefix: {0}")]
     Prefix(#[from] proto::KeyError),
-    #[error("ground truth in the log: {0}")]
-    Truth(#[from] TruthLogError),
 }
 
 /// The state at `at`, handed to the sink when `asked`, written and counted; its payload.
@@ -192,12 +184,7 @@ pub fn replay(
         ..ReplayReport::default()
     };
     let has_states = messages.iter().any(|m| m.schema_name == "BallState");
-    let has_truth = messages
-        .iter()
-        .any(|m| m.topic == sim::truth_log::RUN_TOPIC);
     let mut times = schedule(opts, messages, has_states);
-    let mut truth = TruthLogBuilder::new();
-    let mut arrivals: Vec<(Stamp, proto::Observation)> = Vec::new();
     let (first, last) = (messages.first(), messages.last());
     if let (Some(a), Some(b)) = (first, last) {
         report.span_s = b.log_time.secs_since(a.log_time).max(0.0);
@@ -214,17 +201,7 @@ pub fn replay(
         match m.schema_name.as_str() {
             "Observation" => {
                 report.observations += 1;
-                // Decoded once: kept for scoring (when the log has ground truth) and fused.
-                let accepted = match proto::decode::<proto::Observation>(&m.data) {
-                    Ok(o) => {
-                        if has_truth {
-                            arrivals.push((at, o.clone()));
-                        }
-                        engine.observation_decoded(robot, o, at).is_ok()
-                    }
-                    Err(_) => engine.observation(robot, &m.data, at).is_ok(),
-                };
-                if accepted {
+                if engine.observation(robot, &m.data, at).is_ok() {
                     report.observations_accepted += 1;
                 }
                 sink.write(&m.topic, &m.schema_name, at, &m.data);
@@ -251,10 +228,6 @@ pub fn replay(
                     ));
                 }
             }
-            _ if sim::truth_log::TOPICS.contains(&m.topic.as_str()) => {
-                truth.push(&m.topic, &m.data)?;
-                sink.write(&m.topic, &m.schema_name, at, &m.data);
-            }
             _ => {
                 report.other += 1;
                 sink.write(&m.topic, &m.schema_name, at, &m.data);
@@ -271,24 +244,6 @@ pub fn replay(
     report.model = last
         .and_then(|m| engine.ball_state(m.log_time))
         .map(|s| s.model);
-    if truth.has_run() {
-        let run = truth.finish(arrivals)?;
-        // The configured fusion, on the run's pitch.
-        let mut cfg = opts.engine.fusion.clone();
-        cfg.set_pitch(run.pitch.clone());
-        let records = run_fusion(&run, cfg.clone(), |_| true);
-        let without = run
-            .phantom
-            .as_ref()
-            .map(|_| run_fusion(&run, cfg.clone(), |d: &Delivery| d.kind != ObsKind::Phantom));
-        let samples = score(
-            &run,
-            &records,
-            tick_count(run.duration_s),
-            without.as_deref(),
-        );
-        report.accuracy = Some(Summary::of(&samples));
-    }
     Ok(report)
 }
 

@@ -1,9 +1,9 @@
-//! `simulate` and `replay`: match logs written from the simulator, re-fused offline, or
-//! played back over Zenoh and HTTP as if live.
+//! `replay`: match logs re-fused offline, or played back over Zenoh and HTTP as if live.
 
-use crate::cli::{ReplayArgs, SimulateArgs, bind_http, serve_config, shutdown_signal};
+use crate::cli::ReplayArgs;
 use anyhow::{Context, Result};
-use fusion_server::matchlog::{RecorderSink, write_simulated};
+use fusion_server::args::{bind_http, serve_config, shutdown_signal};
+use fusion_server::matchlog::RecorderSink;
 use fusion_server::mcap_read::{LogMessage, read_logs};
 use fusion_server::net::NetConfig;
 use fusion_server::record::RecorderConfig;
@@ -57,37 +57,6 @@ fn remove_earlier(dir: &std::path::Path, prefix: &str) -> Result<()> {
             std::fs::remove_file(e.path())?;
         }
     }
-    Ok(())
-}
-
-pub fn simulate(a: SimulateArgs) -> Result<()> {
-    let pitch = a.pitch.over(&proto::Pitch::default())?;
-    let run = fusion_server::simrobots::simulate_on(
-        &pitch,
-        &a.scenario,
-        a.seed,
-        sim::SimConfig::default().start,
-        a.duration_s,
-        a.team_size,
-    )?;
-    let mut cfg = RecorderConfig::new(&a.out);
-    cfg.file_prefix = format!("sim-{}-{}", a.scenario, a.seed);
-    // The same scenario and seed make the same file: replace an earlier one.
-    remove_earlier(&a.out, &cfg.file_prefix)?;
-    let mut sink = RecorderSink::create(cfg, run.start)?;
-    let n = write_simulated(&run, &KeySpace::default(), &mut sink)?;
-    let summary = sink.finish()?;
-    for f in &summary.files {
-        println!("{}", f.display());
-    }
-    eprintln!(
-        "{} s of `{}` (seed {}): {} observations from {} robots, {n} messages",
-        run.duration_s,
-        run.scenario,
-        run.seed,
-        run.deliveries.len(),
-        run.observer_ids().len()
-    );
     Ok(())
 }
 

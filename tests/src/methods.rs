@@ -2,8 +2,8 @@
 //! arrival order and asked for their estimate at the same evaluation ticks.
 
 use crate::baseline::SeedBaseline;
+pub use crate::scoring::{drive, drive_ticks, fusion_config, model_record, run_fusion};
 use fusion_server::core::FusionConfig;
-pub use fusion_server::scoring::{drive, drive_ticks, fusion_config, model_record, run_fusion};
 use proto::Stamp;
 use sim::score::{HORIZONS_S, TickRecord};
 use sim::{Delivery, SimRun};

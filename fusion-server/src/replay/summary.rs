@@ -42,7 +42,6 @@ pub fn summary_json(r: &ReplayReport, wall_s: f64, out: &ReplayOutputs) -> serde
         })),
         "span_s": r.span_s,
         "wall_s": wall_s,
-        "accuracy": r.accuracy.as_ref().and_then(|a| serde_json::to_value(a).ok()),
         "log_files": out.log_files,
         "states_csv": out.states_csv,
     })
@@ -116,65 +115,6 @@ pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
         r.span_s,
         r.span_s / wall_s.max(1e-9)
     ));
-    if let Some(acc) = &r.accuracy {
-        accuracy_lines(&mut line, acc);
-    }
     lines.push(String::new());
     lines.join("\n")
-}
-
-fn accuracy_lines(line: &mut impl FnMut(String), acc: &sim::score::Summary) {
-    let f = |v: Option<f64>, scale: f64, unit: &str| {
-        v.map(|x| format!("{:.1} {unit}", x * scale))
-            .unwrap_or_else(|| "-".into())
-    };
-    let spread = |sp: &sim::score::Spread, scale: f64, unit: &str| {
-        format!(
-            "median {} / p90 {}",
-            f(sp.median, scale, unit),
-            f(sp.p90, scale, unit)
-        )
-    };
-    line("accuracy against the log's ground truth (the evaluation's figures):".into());
-    line(format!(
-        "  coverage            {}",
-        f(Some(acc.coverage), 100.0, "%")
-    ));
-    line(format!(
-        "  position score      {}",
-        f(acc.position_score, 100.0, "%")
-    ));
-    line(format!(
-        "  position RMSE       {}",
-        f(acc.position_rmse_m, 100.0, "cm")
-    ));
-    line(format!(
-        "  position median     {}",
-        f(acc.position_median_m, 100.0, "cm")
-    ));
-    line(format!(
-        "  velocity RMSE       {}",
-        f(acc.velocity_rmse_mps, 100.0, "cm/s")
-    ));
-    line(format!(
-        "  direction error     {}",
-        f(acc.direction_error_deg, 1.0, "deg")
-    ));
-    for (h, sp) in &acc.horizon_error_m {
-        line(format!(
-            "  error at {h:>4} s     {}",
-            spread(sp, 100.0, "cm")
-        ));
-    }
-    line(format!(
-        "  stop point error    {}",
-        spread(&acc.stop_error_m, 100.0, "cm")
-    ));
-    line(format!(
-        "  bounce time error   {}",
-        spread(&acc.bounce_time_error_s, 1000.0, "ms")
-    ));
-    if let Some(p) = acc.phantom_pull_max_m {
-        line(format!("  phantom pull max    {:.1} cm", p * 100.0));
-    }
 }

@@ -15,13 +15,13 @@ use clap::Parser;
 use fusion_server::live::{Clock, SystemClock};
 use fusion_server::net::{NetConfig, free_loopback_port};
 use fusion_server::serve::{self, ServeConfig};
+use harness::bench::*;
 use proto::{Camera, Observation, Pose2, Stamp};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-use harness::bench::*;
 
 #[derive(Debug, Parser)]
 struct Args {
@@ -381,9 +381,10 @@ async fn raw_echo_latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
 
 /// A simulated match written as a log, then replayed offline, timed.
 fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
-    use fusion_server::matchlog::{RecorderSink, write_simulated};
+    use fusion_server::matchlog::RecorderSink;
     use fusion_server::replay::{ReplayOptions, replay};
-    let run = fusion_server::simrobots::simulate(
+    use harness::sim_log::{run_of_log, score_run, truth_schemas, write_simulated};
+    let run = harness::sim_robots::simulate(
         "match",
         0,
         sim::SimConfig::default().start,
@@ -396,7 +397,7 @@ fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
         let mut cfg = fusion_server::record::RecorderConfig::new(&dir);
         cfg.file_prefix = prefix.into();
         let mut sink = Filter {
-            inner: RecorderSink::create(cfg, run.start)?,
+            inner: RecorderSink::with_schemas(cfg, run.start, truth_schemas())?,
             keep,
         };
         write_simulated(&run, &proto::KeySpace::default(), &mut sink)?;
@@ -424,13 +425,11 @@ fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
     // The ground-truth log: every message, the run rebuilt and scored.
     let t0 = Instant::now();
     let truth_log = fusion_server::mcap_read::read_logs(&truth_files)?;
-    let full = replay(&truth_log.messages, &opts, &mut (), &mut |_, _| {})?;
+    replay(&truth_log.messages, &opts, &mut (), &mut |_, _| {})?;
+    let scored = run_of_log(&truth_log.messages)?.map(|run| score_run(&run, &opts.engine.fusion));
     let full_s = t0.elapsed().as_secs_f64();
     let _ = std::fs::remove_dir_all(&dir);
-    anyhow::ensure!(
-        full.accuracy.is_some(),
-        "the simulated log carries ground truth"
-    );
+    anyhow::ensure!(scored.is_some(), "the simulated log carries ground truth");
     Ok(ReplaySpeed {
         match_s: run.duration_s,
         robots: run.observer_ids().len(),
@@ -486,7 +485,7 @@ async fn memory(robots: usize, seconds: f64) -> Result<Memory> {
     let pid = child.id();
     tokio::time::sleep(Duration::from_millis(500)).await;
     let rss_idle_kb = proc_status_kb(pid, "VmRSS:").unwrap_or(0);
-    let cfg = fusion_server::simrobots::SimRobotsConfig {
+    let cfg = harness::sim_robots::SimRobotsConfig {
         scenario: "match".into(),
         seed: 5,
         robots: Vec::new(),
@@ -501,7 +500,7 @@ async fn memory(robots: usize, seconds: f64) -> Result<Memory> {
     let cpu0 = proc_cpu_s(pid).unwrap_or(0.0);
     let (_stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let t0 = Instant::now();
-    let published = fusion_server::simrobots::run(cfg, stop_rx).await?;
+    let published = harness::sim_robots::run(cfg, stop_rx).await?;
     let wall_s = t0.elapsed().as_secs_f64();
     let cpu_s = proc_cpu_s(pid).unwrap_or(0.0) - cpu0;
     let rss_kb = proc_status_kb(pid, "VmRSS:").unwrap_or(0);

@@ -1,44 +1,51 @@
-//! `demo`: the whole system on this machine, the server with simulated MiRos (real
-//! `robot-agent` processes, or modelled observations with `--light`) and the coach's page.
+//! `demo`: the whole system on this machine: the fusion server with simulated MiRos (real
+//! agent pipelines in `sim_agent` processes rendering their cameras, or modelled
+//! observations with `--light`) and the coach's page. Each match plays for `--duration-s`
+//! (default 120 s) with `--team-size` robots (default 4), then the next seed.
 
-use crate::cli::{
+#[path = "demo/agents.rs"]
+mod agents;
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use fusion_server::args::{
     ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
 };
-use anyhow::{Context, Result};
-use clap::Args;
 use fusion_server::live::{Clock, SystemClock};
 use fusion_server::net::NetConfig;
 use fusion_server::serve;
-use fusion_server::simrobots::{self, SimRobotsConfig};
+use harness::sim_args::MatchArgs;
+use harness::sim_robots::{self, SimRobotsConfig};
 use proto::Pitch;
 use std::sync::Arc;
 use std::time::Duration;
 
-#[derive(Debug, Clone, Args)]
-pub struct DemoArgs {
+/// Each match's length without `--duration-s`, seconds.
+const MATCH_S: f64 = 120.0;
+/// Robots on the pitch without `--team-size`.
+const TEAM_SIZE: usize = 4;
+
+#[derive(Debug, Clone, Parser)]
+#[command(
+    about = "The whole system on this machine: the server, simulated MiRos and the coach's page"
+)]
+struct DemoArgs {
     #[command(flatten)]
-    pub serve: ServeArgs,
-    /// Scenario the simulated robots play (a new seed after each match).
-    #[arg(long, default_value = "match")]
-    pub scenario: String,
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Simulated MiRos on the pitch (in the `match` scenario).
-    #[arg(long, default_value_t = 4)]
-    pub robots: usize,
-    /// Length of each simulated match, seconds.
-    #[arg(long, default_value_t = 120.0)]
-    pub match_s: f64,
+    serve: ServeArgs,
+    /// The match the robots play (a new seed after each one). The pitch flags are the
+    /// server's (under "Pitch").
+    #[command(flatten)]
+    sim: MatchArgs,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
-    pub for_s: Option<f64>,
+    for_s: Option<f64>,
     /// Robots report modelled observations instead of running the real perception on
     /// rendered camera frames (much lighter: no rendering, no image processing).
     #[arg(long)]
-    pub light: bool,
+    light: bool,
     /// Camera frames per second of each agent (both cameras).
     #[arg(long, default_value_t = 10.0)]
-    pub camera_hz: f64,
+    camera_hz: f64,
 }
 
 /// Prints a one-line summary every few seconds until `stop`.
@@ -82,7 +89,21 @@ fn on_miro_ground(pitch: &Pitch) -> bool {
     } == miro
 }
 
-pub async fn run(a: DemoArgs) -> Result<()> {
+fn main() -> Result<()> {
+    let args = DemoArgs::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
+    rt.block_on(run(args))
+}
+
+async fn run(a: DemoArgs) -> Result<()> {
     let (mut cfg, rec) = serve_config(&a.serve)?;
     if cfg.net.listen.is_empty() {
         cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
@@ -92,7 +113,7 @@ pub async fn run(a: DemoArgs) -> Result<()> {
     let agent_bin = if a.light {
         None
     } else {
-        crate::demo_agents::agent_binary()
+        agents::agent_binary()
     };
     anyhow::ensure!(
         agent_bin.is_none() || on_miro_ground(&pitch),
@@ -108,45 +129,47 @@ pub async fn run(a: DemoArgs) -> Result<()> {
     let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
         let _ = server_stop.wait_for(|s| *s).await;
     }));
-    let start = SystemClock.now().offset_secs(1.0);
+    let start = a.sim.start_or(SystemClock.now().offset_secs(1.0));
+    let match_s = a.sim.duration_s.unwrap_or(MATCH_S);
+    let team_size = a.sim.team_size.unwrap_or(TEAM_SIZE);
+    let (scenario, seed) = (a.sim.scenario.clone(), a.sim.seed);
     if !a.light && agent_bin.is_none() {
         println!(
-            "No robot-agent binary next to this one: the robots report modelled observations \
-             (build it with `cargo build --release -p robot-agent` to run real perception)."
+            "No sim_agent binary next to this one: the robots report modelled observations \
+             (build it with `cargo build --release -p harness --bins` to run real perception)."
         );
     }
     let (sims, mut agents) = match agent_bin {
         Some(binary) => {
-            let run =
-                simrobots::simulate(&a.scenario, a.seed, start, Some(a.match_s), Some(a.robots))?;
-            let ids = simrobots::chosen_robots(&run, &[])?;
-            let agents_cfg = crate::demo_agents::AgentsConfig {
+            let run = sim_robots::simulate(&scenario, seed, start, Some(match_s), Some(team_size))?;
+            let ids = sim_robots::chosen_robots(&run, &[])?;
+            let agents_cfg = agents::AgentsConfig {
                 binary,
-                scenario: a.scenario.clone(),
-                seed: a.seed,
-                team_size: a.robots,
-                match_s: a.match_s,
+                scenario: scenario.clone(),
+                seed,
+                team_size,
+                match_s,
                 start,
                 camera_hz: a.camera_hz,
                 endpoint: endpoint.clone(),
                 prefix: cfg.prefix.clone(),
             };
-            let agents = crate::demo_agents::Agents::spawn(&agents_cfg, &ids)?;
+            let agents = agents::Agents::spawn(&agents_cfg, &ids)?;
             println!(
-                "Demo running: {} robot-agent processes render their cameras of `{}` at {} Hz, find the ball and publish over Zenoh at {endpoint}.",
+                "Demo running: {} agent processes render their cameras of `{}` at {} Hz, find the ball and publish over Zenoh at {endpoint}.",
                 ids.len(),
-                a.scenario,
+                scenario,
                 a.camera_hz
             );
             (None, Some(agents))
         }
         None => {
             let robots = SimRobotsConfig {
-                scenario: a.scenario.clone(),
-                seed: a.seed,
+                scenario: scenario.clone(),
+                seed,
                 robots: Vec::new(),
-                duration_s: Some(a.match_s),
-                team_size: Some(a.robots),
+                duration_s: Some(match_s),
+                team_size: Some(team_size),
                 start,
                 repeat: true,
                 status_rate_hz: 5.0,
@@ -155,10 +178,10 @@ pub async fn run(a: DemoArgs) -> Result<()> {
             };
             println!(
                 "Demo running: simulated MiRos playing `{}` publish modelled observations over Zenoh at {endpoint}.",
-                a.scenario
+                scenario
             );
             (
-                Some(tokio::spawn(simrobots::run_on(
+                Some(tokio::spawn(sim_robots::run_on(
                     robots,
                     pitch,
                     stop_rx.clone(),

@@ -1,16 +1,17 @@
-//! The demo's robots as real `robot-agent` processes: each renders its own two cameras of
-//! the simulated match, finds the ball in the frames and publishes over Zenoh, exactly as
-//! on a robot. Every process simulates the same match (same scenario, seed and start).
+//! The demo's robots as `sim_agent` processes: each renders its own two cameras of the
+//! simulated match and runs the robot agent's own loop on them (finds the ball in the
+//! frames, publishes over Zenoh), exactly as on a robot. Every process simulates the same
+//! match (same scenario, seed and start).
 
 use anyhow::{Context, Result};
 use proto::Stamp;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 
-/// The `robot-agent` binary next to this one (cargo builds both into the same folder).
+/// The `sim_agent` binary next to this one (cargo builds both into the same folder).
 pub fn agent_binary() -> Option<PathBuf> {
     let exe = std::env::current_exe().ok()?;
-    let bin = exe.with_file_name(format!("robot-agent{}", std::env::consts::EXE_SUFFIX));
+    let bin = exe.with_file_name(format!("sim_agent{}", std::env::consts::EXE_SUFFIX));
     bin.is_file().then_some(bin)
 }
 
@@ -40,12 +41,12 @@ impl Agents {
         let mut children = Vec::new();
         for id in ids {
             let child = Command::new(&cfg.binary)
-                .args(["run", "--robot-id", id, "--source", "sim", "--repeat"])
+                .args(["--robot-id", id, "--repeat"])
                 .args(["--scenario", &cfg.scenario])
                 .args(["--seed", &cfg.seed.to_string()])
                 .args(["--team-size", &cfg.team_size.to_string()])
-                .args(["--sim-duration", &cfg.match_s.to_string()])
-                .args(["--start-stamp", &cfg.start.0.to_string()])
+                .args(["--duration-s", &cfg.match_s.to_string()])
+                .args(["--start-ns", &cfg.start.0.to_string()])
                 .args(["--camera-hz", &cfg.camera_hz.to_string()])
                 .args(["--connect", &cfg.endpoint, "--prefix", &cfg.prefix])
                 // Agents stop by themselves should the demo die without stopping them.

@@ -31,8 +31,7 @@ fn recorded_match(dir: &Path, seconds: f64) -> (Proc, Proc, String) {
     let dir = dir.to_string_lossy().into_owned();
     let (server, endpoint, addr) = start_server(&["--record", &dir, "--rate-hz", "20"]);
     let start = Stamp(now_ns()).offset_secs(1.0).0.to_string();
-    let robots = Proc::spawn(&[
-        "sim-robots",
+    let robots = Proc::robots(&[
         "--connect",
         &endpoint,
         "--scenario",
@@ -81,7 +80,7 @@ fn a_recorded_match_replays_to_identical_states() {
     assert!(count("BallState") > 20);
 
     let replayed_dir = dir.join("replayed");
-    let out = std::process::Command::new(BIN)
+    let out = std::process::Command::new(server_bin())
         .args(["replay", "--json", "--out"])
         .arg(&replayed_dir)
         .arg(&files[0])
@@ -138,9 +137,8 @@ fn kill_9_while_recording_loses_at_most_about_a_second() {
 #[test]
 fn a_simulated_log_plays_back_as_if_live() {
     let dir = temp_dir("realtime");
-    let out = std::process::Command::new(BIN)
+    let out = std::process::Command::new(SIMULATE)
         .args([
-            "simulate",
             "--scenario",
             "team-rally",
             "--seed",

@@ -25,17 +25,16 @@ fn server_follows_the_simulated_ball_and_notices_a_robot_dying() {
     let (_server, endpoint, addr) = start_server(&["--id", "e2e"]);
     // Everyone plays the same match from a shared start a little ahead.
     let start = Stamp(now_ns()).offset_secs(3.0);
-    let run = fusion_server::simrobots::simulate(SCENARIO, SEED, start, Some(MATCH_S), None)
+    let run = harness::sim_robots::simulate(SCENARIO, SEED, start, Some(MATCH_S), None)
         .expect("simulate");
-    let ids = fusion_server::simrobots::chosen_robots(&run, &[]).expect("robots");
+    let ids = harness::sim_robots::chosen_robots(&run, &[]).expect("robots");
     assert!(ids.len() >= 3, "{ids:?}");
     let start_ns = start.0.to_string();
     let duration = MATCH_S.to_string();
     let mut robots: Vec<Proc> = ids
         .iter()
         .map(|id| {
-            Proc::spawn(&[
-                "sim-robots",
+            Proc::robots(&[
                 "--connect",
                 &endpoint,
                 "--scenario",

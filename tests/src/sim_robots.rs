@@ -3,9 +3,9 @@
 //! and its status at a few hertz, in real time. The demo runs them as tasks; tests run them
 //! as separate processes.
 
-use crate::live::{Clock, SystemClock};
-use crate::net::NetConfig;
 use anyhow::{Context, Result};
+use fusion_server::live::{Clock, SystemClock};
+use fusion_server::net::NetConfig;
 use proto::{HeadJoints, KeySpace, Observation, Pitch, RobotStatus, Stamp};
 use sim::{RobotTrack, SimConfig, SimRun};
 use std::sync::Arc;

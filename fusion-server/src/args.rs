@@ -1,0 +1,203 @@
+//! The serving commands' flags and the little each command needs around the server: the
+//! settings they resolve to, the match log, Ctrl-C, the HTTP listener. Any program that
+//! runs a server (this crate's binary, the harness's demo) flattens [`ServeArgs`] into its
+//! own command line.
+
+use crate::config::{ConfigError, PitchFlags, Settings};
+use crate::live::{Clock, MatchLog, SystemClock};
+use crate::matchlog::McapLog;
+use crate::record::RecorderConfig;
+use crate::serve::ServeConfig;
+use anyhow::{Context, Result};
+use clap::Args;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Flags shared by every serving subcommand.
+#[derive(Debug, Clone, Args)]
+pub struct ServeArgs {
+    /// TOML configuration file (flags override it).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// HTTP address for the API, the live stream and the page.
+    /// [default: 127.0.0.1:8080, or `http` in the configuration file]
+    #[arg(long)]
+    pub http: Option<String>,
+    /// Zenoh endpoint to listen on (repeatable).
+    #[arg(long)]
+    pub listen: Vec<String>,
+    /// Zenoh endpoint to connect to, e.g. a zenohd router (repeatable).
+    #[arg(long)]
+    pub connect: Vec<String>,
+    /// Zenoh mode: peer, client or router.
+    #[arg(long)]
+    pub mode: Option<String>,
+    /// Turn on multicast and gossip scouting (off by default: only the given endpoints).
+    #[arg(long)]
+    pub scouting: bool,
+    /// This server's id (its liveliness token is {prefix}/servers/{id}).
+    #[arg(long)]
+    pub id: Option<String>,
+    /// Key prefix.
+    #[arg(long)]
+    pub prefix: Option<String>,
+    /// Ball states published per second.
+    #[arg(long)]
+    pub rate_hz: Option<f64>,
+    /// Also publish a state right after new observations (lowest latency).
+    #[arg(long)]
+    pub on_update: bool,
+    /// Only accept these robots (comma-separated ids).
+    #[arg(long, value_delimiter = ',')]
+    pub roster: Vec<String>,
+    /// Record every observation, status and published state as MCAP match logs in DIR.
+    #[arg(long, value_name = "DIR")]
+    pub record: Option<PathBuf>,
+    /// Start a new log file after this many megabytes.
+    #[arg(long)]
+    pub record_max_mb: Option<f64>,
+    /// Start a new log file after this many minutes.
+    #[arg(long)]
+    pub record_max_min: Option<f64>,
+    /// Token the control endpoints (replay's pause, play, seek, speed) require as
+    /// `Authorization: Bearer TOKEN`; without it only this machine may use them.
+    #[arg(long, value_name = "TOKEN")]
+    pub control_token: Option<String>,
+    #[command(flatten)]
+    pub pitch: PitchFlags,
+}
+
+impl ServeArgs {
+    /// The configuration file's settings (if there is a file) with these flags over them:
+    /// one set of settings, checked in one place ([`Settings::apply`]).
+    pub fn settings(&self) -> Result<Settings, ConfigError> {
+        let mut s = match &self.config {
+            Some(path) => Settings::load(path)?,
+            None => Settings::default(),
+        };
+        self.overlay(&mut s)?;
+        Ok(s)
+    }
+
+    /// Writes the flags that were given over `s`.
+    fn overlay(&self, s: &mut Settings) -> Result<(), ConfigError> {
+        fn set<T: Clone>(field: &mut Option<T>, flag: &Option<T>) {
+            if flag.is_some() {
+                field.clone_from(flag);
+            }
+        }
+        set(&mut s.http, &self.http);
+        set(&mut s.server_id, &self.id);
+        set(&mut s.prefix, &self.prefix);
+        set(&mut s.state_rate_hz, &self.rate_hz);
+        set(&mut s.control_token, &self.control_token);
+        if self.on_update {
+            s.publish_on_update = Some(true);
+        }
+        if !self.roster.is_empty() {
+            s.roster = Some(self.roster.clone());
+        }
+        set(&mut s.record.dir, &self.record);
+        set(&mut s.record.max_mb, &self.record_max_mb);
+        set(&mut s.record.max_minutes, &self.record_max_min);
+        let net_flags = !self.listen.is_empty()
+            || !self.connect.is_empty()
+            || self.mode.is_some()
+            || self.scouting;
+        if net_flags {
+            let mut z = s
+                .zenoh
+                .clone()
+                .unwrap_or_else(|| ServeConfig::default().net);
+            if !self.listen.is_empty() {
+                z.listen.clone_from(&self.listen);
+            }
+            if !self.connect.is_empty() {
+                z.connect.clone_from(&self.connect);
+            }
+            if let Some(m) = &self.mode {
+                z.mode.clone_from(m);
+                // A client only connects (to a router): no default listening endpoint.
+                if m == "client" && self.listen.is_empty() {
+                    z.listen.clear();
+                }
+            }
+            if self.scouting {
+                z.multicast_scouting = true;
+                z.gossip_scouting = true;
+            }
+            s.zenoh = Some(z);
+        }
+        if self.pitch != PitchFlags::default() {
+            let base = s.pitch.clone().unwrap_or_default();
+            s.pitch = Some(self.pitch.over(&base)?);
+        }
+        Ok(())
+    }
+}
+
+/// The server's configuration and, when recording, the match log's, from the flags over
+/// the configuration file over the defaults.
+pub fn serve_config(a: &ServeArgs) -> Result<(ServeConfig, Option<RecorderConfig>)> {
+    let settings = a.settings()?;
+    let mut cfg = ServeConfig::default();
+    settings.apply(&mut cfg)?;
+    cfg.net.check()?;
+    Ok((cfg, settings.record.recorder()?))
+}
+
+/// Starts the match log, if one is configured.
+pub fn start_log(rec: Option<RecorderConfig>) -> Result<Option<Arc<McapLog>>> {
+    rec.map(|r| {
+        let dir = r.dir.clone();
+        McapLog::start(r, SystemClock.now())
+            .map(Arc::new)
+            .with_context(|| format!("starting the match log in {}", dir.display()))
+    })
+    .transpose()
+}
+
+/// Finishes the match log and says where it is.
+pub fn finish_log(log: Option<Arc<McapLog>>) -> Result<()> {
+    if let Some(log) = log
+        && let Some(summary) = log.finish()?
+    {
+        for f in &summary.files {
+            println!("match log: {}", f.display());
+        }
+        println!("{} messages recorded", summary.messages);
+    }
+    Ok(())
+}
+
+pub fn as_match_log(log: &Option<Arc<McapLog>>) -> Option<Arc<dyn MatchLog>> {
+    log.clone().map(|l| l as Arc<dyn MatchLog>)
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {}
+        _ = term => {}
+    }
+}
+
+pub async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {
+    tokio::net::TcpListener::bind(addr)
+        .await
+        .with_context(|| format!("cannot listen for HTTP on {addr} (choose another with --http)"))
+}

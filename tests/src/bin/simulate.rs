@@ -1,0 +1,68 @@
+//! `simulate`: a simulated match written as a match log (MCAP): every observation on its
+//! robot's key at the time it reaches the server, and the simulator's ground truth on
+//! channels of their own. `fusion-server replay` re-fuses it; `score_log` scores it.
+
+use anyhow::Result;
+use clap::Parser;
+use fusion_server::config::PitchFlags;
+use fusion_server::matchlog::RecorderSink;
+use fusion_server::record::RecorderConfig;
+use harness::sim_args::MatchArgs;
+use harness::sim_log::{truth_schemas, write_simulated};
+use proto::KeySpace;
+use std::path::PathBuf;
+
+#[derive(Debug, Parser)]
+#[command(about = "Simulate a match and write it as a match log (observations and ground truth)")]
+struct Args {
+    #[command(flatten)]
+    sim: MatchArgs,
+    /// The simulated pitch (replay it with the same flags).
+    #[command(flatten)]
+    pitch: PitchFlags,
+    /// Directory for the log file.
+    #[arg(long, default_value = "out/logs")]
+    out: PathBuf,
+}
+
+/// Removes the logs in `dir` that an earlier run of the same command wrote (`{prefix}-….mcap`).
+fn remove_earlier(dir: &std::path::Path, prefix: &str) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let stem = format!("{prefix}-");
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with(&stem) && name.ends_with(".mcap") {
+            std::fs::remove_file(e.path())?;
+        }
+    }
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    let a = Args::parse();
+    let pitch = a.pitch.over(&proto::Pitch::default())?;
+    let run = a
+        .sim
+        .simulate(&pitch, a.sim.start_or(sim::SimConfig::default().start))?;
+    let mut cfg = RecorderConfig::new(&a.out);
+    cfg.file_prefix = format!("sim-{}-{}", a.sim.scenario, a.sim.seed);
+    // The same scenario and seed make the same file: replace an earlier one.
+    remove_earlier(&a.out, &cfg.file_prefix)?;
+    let mut sink = RecorderSink::with_schemas(cfg, run.start, truth_schemas())?;
+    let n = write_simulated(&run, &KeySpace::default(), &mut sink)?;
+    let summary = sink.finish()?;
+    for f in &summary.files {
+        println!("{}", f.display());
+    }
+    eprintln!(
+        "{} s of `{}` (seed {}): {} observations from {} robots, {n} messages",
+        run.duration_s,
+        run.scenario,
+        run.seed,
+        run.deliveries.len(),
+        run.observer_ids().len()
+    );
+    Ok(())
+}
