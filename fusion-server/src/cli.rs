@@ -2,12 +2,12 @@
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
-use fusion_server::args::{
+use fusion_server::matchlog::replay::TimeArg;
+use fusion_server::shell::args::{
     ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
 };
-use fusion_server::live::SystemClock;
-use fusion_server::replay::TimeArg;
-use fusion_server::serve;
+use fusion_server::shell::live::SystemClock;
+use fusion_server::shell::serve;
 use std::path::PathBuf;
 use std::sync::Arc;
 

@@ -2,7 +2,7 @@
 //! feeds the core, keeps the roster of robots, answers queries and counts everything.
 //! Like the core it never reads a clock and does no I/O: the shell passes time and bytes in.
 
-use crate::core::{Fusion, FusionConfig, Ingest};
+use crate::estimator::{Fusion, FusionConfig, Ingest};
 use crate::query::{BallQuery, QueryError, QueryReply};
 use proto::{
     BallState, DecodeError, Intercept, Observation, Pitch, Pose2, RobotStatus, Stamp, VERSION,

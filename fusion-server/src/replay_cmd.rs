@@ -2,16 +2,16 @@
 
 use crate::cli::ReplayArgs;
 use anyhow::{Context, Result};
-use fusion_server::args::{bind_http, serve_config, shutdown_signal};
 use fusion_server::matchlog::RecorderSink;
-use fusion_server::mcap_read::{LogMessage, read_logs};
-use fusion_server::net::NetConfig;
-use fusion_server::record::RecorderConfig;
-use fusion_server::replay::{
+use fusion_server::matchlog::read::{LogMessage, read_logs};
+use fusion_server::matchlog::record::RecorderConfig;
+use fusion_server::matchlog::replay::{
     ReplayOptions, ReplayOutputs, StatesCsv, replay, summary_json, summary_text,
 };
-use fusion_server::replay_live::{Deliver, PlayConfig, ReplayControl, play};
-use fusion_server::serve;
+use fusion_server::matchlog::replay_live::{Deliver, PlayConfig, ReplayControl, play};
+use fusion_server::shell::args::{bind_http, serve_config, shutdown_signal};
+use fusion_server::shell::net::NetConfig;
+use fusion_server::shell::serve;
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
 use std::collections::BTreeSet;

@@ -5,8 +5,8 @@
 mod support;
 
 use fusion_server::matchlog::RecorderSink;
-use fusion_server::record::RecorderConfig;
-use fusion_server::replay::ReplaySink;
+use fusion_server::matchlog::record::RecorderConfig;
+use fusion_server::matchlog::replay::ReplaySink;
 use proto::{Camera, Observation, Pose2, Stamp};
 use std::path::{Path, PathBuf};
 use support::BIN;

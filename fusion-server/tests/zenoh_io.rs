@@ -4,9 +4,9 @@
 #[path = "hardening/server.rs"]
 mod server;
 
-use fusion_server::live::{Clock, SystemClock};
-use fusion_server::net::{NetConfig, free_loopback_port};
-use fusion_server::serve::{self, ServeConfig};
+use fusion_server::shell::live::{Clock, SystemClock};
+use fusion_server::shell::net::{NetConfig, free_loopback_port};
+use fusion_server::shell::serve::{self, ServeConfig};
 use server::{eventually, obs};
 use std::sync::Arc;
 use std::time::Duration;

@@ -3,7 +3,7 @@
 
 use crate::baseline::SeedBaseline;
 pub use crate::scoring::{drive, drive_ticks, fusion_config, model_record, run_fusion};
-use fusion_server::core::FusionConfig;
+use fusion_server::estimator::FusionConfig;
 use proto::Stamp;
 use sim::score::{HORIZONS_S, TickRecord};
 use sim::{Delivery, SimRun};

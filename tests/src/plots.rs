@@ -4,8 +4,8 @@
 use crate::eval::{RunResult, is_team};
 use crate::methods::{Method, fusion_config};
 use crate::plot::{Chart, Marker, PALETTE, RectOutline, Series, Style, write_png};
-use fusion_server::core::Fusion;
-use fusion_server::core::motion::{Bounds, fly};
+use fusion_server::estimator::Fusion;
+use fusion_server::estimator::motion::{Bounds, fly};
 use sim::score::{HORIZONS_S, Samples, quantile};
 use sim::{BallEvent, SimRun};
 use std::path::Path;

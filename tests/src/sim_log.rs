@@ -3,10 +3,10 @@
 //! server's replay knows nothing of the truth channels; it copies them through.
 
 use crate::scoring::run_fusion;
-use fusion_server::core::FusionConfig;
-use fusion_server::mcap_read::LogMessage;
-use fusion_server::record::Schema;
-use fusion_server::replay::ReplaySink;
+use fusion_server::estimator::FusionConfig;
+use fusion_server::matchlog::read::LogMessage;
+use fusion_server::matchlog::record::Schema;
+use fusion_server::matchlog::replay::ReplaySink;
 use proto::{KeySpace, Stamp};
 use sim::score::{Spread, Summary, score, tick_count};
 use sim::truth_log::{TruthLogBuilder, TruthLogError};

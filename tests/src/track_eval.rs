@@ -13,7 +13,7 @@ use crate::methods::{baseline_record, drive_ticks};
 use crate::track_events::TrackEvents;
 use crate::track_obs::{ObserverSetup, observe};
 use crate::tracks::Track;
-use fusion_server::core::{Bounds, Fusion, FusionConfig, FusionCounters};
+use fusion_server::estimator::{Bounds, Fusion, FusionConfig, FusionCounters};
 use proto::{BallStatus, ModelParams, Pitch, Prediction, Stamp, WallSide};
 use serde::Serialize;
 use sim::Delivery;

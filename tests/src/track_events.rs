@@ -13,7 +13,7 @@
 //!   in the preceding [`PUSH_LOOKBACK_S`] (friction and walls only ever slow a ball down).
 
 use crate::tracks::Track;
-use fusion_server::core::Bounds;
+use fusion_server::estimator::Bounds;
 use proto::WallSide;
 use serde::Serialize;
 

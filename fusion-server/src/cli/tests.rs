@@ -50,7 +50,7 @@ fn pitch_flags_override_the_file_which_overrides_the_defaults() -> Result<()> {
     let (cfg, _) = serve_config(&serve_args(&["serve"]))?;
     assert_eq!(
         cfg.engine.fusion,
-        fusion_server::core::FusionConfig::default()
+        fusion_server::estimator::FusionConfig::default()
     );
     Ok(())
 }

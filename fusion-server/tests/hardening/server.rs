@@ -3,9 +3,9 @@
 //! An in-process server on real loopback Zenoh (explicit port, scouting off) and a real
 //! HTTP listener on port 0, and a Zenoh client connected to it.
 
-use fusion_server::live::{Clock, SystemClock};
-use fusion_server::net::{NetConfig, free_loopback_port};
-use fusion_server::serve::{self, ServeConfig, Shared};
+use fusion_server::shell::live::{Clock, SystemClock};
+use fusion_server::shell::net::{NetConfig, free_loopback_port};
+use fusion_server::shell::serve::{self, ServeConfig, Shared};
 use proto::{Camera, Observation, Pose2, Stamp};
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -67,7 +67,7 @@ impl TestServer {
     pub async fn start_logged(
         id: &str,
         cfg: ServeConfig,
-        log: Option<Arc<dyn fusion_server::live::MatchLog>>,
+        log: Option<Arc<dyn fusion_server::shell::live::MatchLog>>,
     ) -> anyhow::Result<TestServer> {
         let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
         let cfg = ServeConfig {

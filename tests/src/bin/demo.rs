@@ -8,12 +8,12 @@ mod agents;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use fusion_server::args::{
+use fusion_server::shell::args::{
     ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
 };
-use fusion_server::live::{Clock, SystemClock};
-use fusion_server::net::NetConfig;
-use fusion_server::serve;
+use fusion_server::shell::live::{Clock, SystemClock};
+use fusion_server::shell::net::NetConfig;
+use fusion_server::shell::serve;
 use harness::sim_args::MatchArgs;
 use harness::sim_robots::{self, SimRobotsConfig};
 use proto::Pitch;

@@ -2,7 +2,7 @@
 //! arrival order, compared with real time.
 
 use clap::Parser;
-use fusion_server::core::Fusion;
+use fusion_server::estimator::Fusion;
 use harness::methods::fusion_config;
 use std::time::Instant;
 

@@ -4,10 +4,10 @@
 
 use anyhow::Result;
 use clap::Parser;
-use fusion_server::args::shutdown_signal;
-use fusion_server::config::PitchFlags;
-use fusion_server::live::{Clock, SystemClock};
-use fusion_server::net::NetConfig;
+use fusion_server::shell::args::shutdown_signal;
+use fusion_server::shell::config::PitchFlags;
+use fusion_server::shell::live::{Clock, SystemClock};
+use fusion_server::shell::net::NetConfig;
 use harness::sim_args::MatchArgs;
 use harness::sim_robots::{self, SimRobotsConfig};
 

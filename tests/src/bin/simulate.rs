@@ -4,9 +4,9 @@
 
 use anyhow::Result;
 use clap::Parser;
-use fusion_server::config::PitchFlags;
 use fusion_server::matchlog::RecorderSink;
-use fusion_server::record::RecorderConfig;
+use fusion_server::matchlog::record::RecorderConfig;
+use fusion_server::shell::config::PitchFlags;
 use harness::sim_args::MatchArgs;
 use harness::sim_log::{truth_schemas, write_simulated};
 use proto::KeySpace;

@@ -2,7 +2,7 @@
 //! as CSV on stdout, for looking into where the error comes from.
 
 use clap::Parser;
-use fusion_server::core::Fusion;
+use fusion_server::estimator::Fusion;
 use harness::methods::fusion_config;
 use sim::score::TICK_S;
 

@@ -1,7 +1,7 @@
 //! The tracker's settings.
 
-use crate::core::filter::ProcessNoise;
-use crate::core::motion::MotionModel;
+use crate::estimator::filter::ProcessNoise;
+use crate::estimator::motion::MotionModel;
 
 /// Tuning of the tracker. `Default` is what the server runs with.
 #[derive(Debug, Clone, PartialEq)]

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use proto::{Camera, Observation, Pose2, Stamp};
 
 use super::{LogCompression, Record, RecorderConfig, Schema, proto_schemas};
-use crate::mcap_read::LogMessage;
+use crate::matchlog::read::LogMessage;
 
 /// 2026-11-23T23:59:59Z.
 pub(crate) const T0_NS: u64 = 1_795_478_399_000_000_000;

@@ -1,13 +1,13 @@
 //! A match log played back as if live, under control: the server's clock runs through the
 //! recorded match and can be paused, sped up or slowed down, and moved to any time of the
-//! log (the engine is then re-fused up to that time, see [`crate::replay::Seeker`]).
-//! The HTTP control endpoints ([`crate::http`]) drive a [`ReplayControl`]; [`play`] is the
+//! log (the engine is then re-fused up to that time, see [`crate::matchlog::replay::Seeker`]).
+//! The HTTP control endpoints ([`crate::shell::http`]) drive a [`ReplayControl`]; [`play`] is the
 //! loop that hands each recorded input over when the clock reaches it.
 
 use crate::engine::EngineConfig;
-use crate::live::{Clock, Live};
-use crate::mcap_read::LogMessage;
-use crate::replay::{Seeker, is_input};
+use crate::matchlog::read::LogMessage;
+use crate::matchlog::replay::{Seeker, is_input};
+use crate::shell::live::{Clock, Live};
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
 use serde::Serialize;

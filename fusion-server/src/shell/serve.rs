@@ -2,11 +2,11 @@
 //! state, the HTTP server, and the loop that publishes the ball state.
 
 use crate::engine::{Engine, EngineConfig};
-use crate::http::guard::{GuardedListener, HttpLimits};
-use crate::intake::{InputKind, Intake};
-use crate::live::{Clock, ControlAccess, Live, MatchLog};
-use crate::net::NetConfig;
 use crate::query;
+use crate::shell::http::guard::{GuardedListener, HttpLimits};
+use crate::shell::intake::{InputKind, Intake};
+use crate::shell::live::{Clock, ControlAccess, Live, MatchLog};
+use crate::shell::net::NetConfig;
 use anyhow::{Context, Result};
 use axum::serve::ListenerExt;
 use proto::KeySpace;
@@ -77,7 +77,9 @@ pub fn shared(
         Some(t) => ControlAccess::Token(t.clone()),
         None => ControlAccess::LoopbackOnly,
     });
-    live.set_ws_send_timeout(crate::http::guard::secs(cfg.http_limits.ws_send_timeout_s));
+    live.set_ws_send_timeout(crate::shell::http::guard::secs(
+        cfg.http_limits.ws_send_timeout_s,
+    ));
     Ok(Arc::new(live))
 }
 
@@ -204,7 +206,7 @@ pub async fn serve(
     live.set_publisher(publisher);
 
     let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
-    let app = crate::http::app(live.clone());
+    let app = crate::shell::http::app(live.clone());
     let mut http_stop = stop_rx.clone();
     // `tap_io` only to get the connection's address to the handlers (the control
     // endpoints' loopback check).

@@ -1,5 +1,5 @@
 //! Match logs: the messages the server receives and sends, written as MCAP files that
-//! Foxglove opens and the replay reads back ([`crate::mcap_read`]).
+//! Foxglove opens and the replay reads back ([`crate::matchlog::read`]).
 //!
 //! - [`McapRecorder`]: the synchronous writer. Channels are created the first time a topic
 //!   is seen (message encoding `json`, schema encoding `jsonschema`), files rotate by size
@@ -26,7 +26,7 @@ pub use handle::{RecorderHandle, RecorderStats};
 pub use recorder::McapRecorder;
 
 /// The largest payload one record may carry. Larger records are refused, so that every
-/// file stays readable by [`crate::mcap_read`], which caps what it buffers.
+/// file stays readable by [`crate::matchlog::read`], which caps what it buffers.
 pub const MAX_PAYLOAD_BYTES: usize = 32 << 20;
 
 /// The largest [`RecorderConfig::chunk_size_bytes`] accepted, for the same reason.

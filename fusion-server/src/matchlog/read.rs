@@ -17,8 +17,8 @@ use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOp
 use proto::Stamp;
 
 /// The most the reader buffers for one record or chunk. Above what the recorder writes
-/// (chunks of at most [`crate::record::MAX_CHUNK_SIZE_BYTES`] plus one payload of at most
-/// [`crate::record::MAX_PAYLOAD_BYTES`]); a damaged length field asking for more is
+/// (chunks of at most [`crate::matchlog::record::MAX_CHUNK_SIZE_BYTES`] plus one payload of at most
+/// [`crate::matchlog::record::MAX_PAYLOAD_BYTES`]); a damaged length field asking for more is
 /// reported as damage instead of being allocated.
 pub const RECORD_LENGTH_LIMIT_BYTES: usize = 128 << 20;
 
@@ -37,7 +37,7 @@ pub struct LogMessage {
     pub log_time: Stamp,
     /// When the message was published.
     pub publish_time: Stamp,
-    /// The payload (JSON for logs from [`crate::record`]).
+    /// The payload (JSON for logs from [`crate::matchlog::record`]).
     pub data: Vec<u8>,
 }
 
@@ -247,8 +247,8 @@ mod tests {
     use super::*;
     use std::fs;
 
-    use crate::record::test_support::*;
-    use crate::record::{LogCompression, McapRecorder, Record};
+    use crate::matchlog::record::test_support::*;
+    use crate::matchlog::record::{LogCompression, McapRecorder, Record};
 
     const BOTH: [LogCompression; 2] = [LogCompression::None, LogCompression::Zstd];
 

@@ -147,9 +147,9 @@ mod tests {
     use std::fs;
 
     use super::*;
-    use crate::mcap_read::{LogMessage, read_log, read_logs};
-    use crate::record::LogCompression;
-    use crate::record::test_support::*;
+    use crate::matchlog::read::{LogMessage, read_log, read_logs};
+    use crate::matchlog::record::LogCompression;
+    use crate::matchlog::record::test_support::*;
 
     const BOTH: [LogCompression; 2] = [LogCompression::None, LogCompression::Zstd];
 

@@ -1,6 +1,6 @@
 use super::*;
 use crate::engine::{Engine, EngineConfig};
-use crate::live::{Clock, Live};
+use crate::shell::live::{Clock, Live};
 use axum::body::Body;
 use axum::http::Request;
 use http_body_util::BodyExt;

@@ -1,8 +1,8 @@
 //! The HTTP face of the server: the JSON API, the live WebSocket stream, health, metrics and
 //! the coach's page (embedded at build time), and the replay's control endpoints.
 
-use crate::live::Live;
 use crate::query::{self, BallQuery, QueryError};
+use crate::shell::live::Live;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Query, State};
 use axum::http::{StatusCode, Uri, header};
@@ -19,28 +19,32 @@ const JS: &str = "text/javascript; charset=utf-8";
 /// The coach's page and its assets: (path, content type, bytes). Plain files, no build
 /// step; embedded so the page works offline from the binary alone.
 const WEB: &[(&str, &str, &[u8])] = &[
-    ("/", HTML, include_bytes!("../../web/index.html")),
-    ("/index.html", HTML, include_bytes!("../../web/index.html")),
-    ("/app.js", JS, include_bytes!("../../web/app.js")),
-    ("/pitch.js", JS, include_bytes!("../../web/pitch.js")),
-    ("/panel.js", JS, include_bytes!("../../web/panel.js")),
-    ("/replay.js", JS, include_bytes!("../../web/replay.js")),
-    ("/chart.js", JS, include_bytes!("../../web/chart.js")),
+    ("/", HTML, include_bytes!("../../../web/index.html")),
+    (
+        "/index.html",
+        HTML,
+        include_bytes!("../../../web/index.html"),
+    ),
+    ("/app.js", JS, include_bytes!("../../../web/app.js")),
+    ("/pitch.js", JS, include_bytes!("../../../web/pitch.js")),
+    ("/panel.js", JS, include_bytes!("../../../web/panel.js")),
+    ("/replay.js", JS, include_bytes!("../../../web/replay.js")),
+    ("/chart.js", JS, include_bytes!("../../../web/chart.js")),
     (
         "/page.css",
         "text/css; charset=utf-8",
-        include_bytes!("../../web/page.css"),
+        include_bytes!("../../../web/page.css"),
     ),
     (
         "/favicon.svg",
         "image/svg+xml",
-        include_bytes!("../../web/favicon.svg"),
+        include_bytes!("../../../web/favicon.svg"),
     ),
     // Browsers ask for it by this name when a page names none.
     (
         "/favicon.ico",
         "image/svg+xml",
-        include_bytes!("../../web/favicon.svg"),
+        include_bytes!("../../../web/favicon.svg"),
     ),
 ];
 

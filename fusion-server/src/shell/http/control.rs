@@ -8,8 +8,8 @@
 //! cannot steer the replay through the coach's browser.
 
 use super::error;
-use crate::live::{ControlAccess, Live};
-use crate::replay_live::{ControlError, ReplayControl};
+use crate::matchlog::replay_live::{ControlError, ReplayControl};
+use crate::shell::live::{ControlAccess, Live};
 use axum::body::Bytes;
 use axum::extract::{ConnectInfo, Path, State};
 use axum::http::{HeaderMap, StatusCode, header};

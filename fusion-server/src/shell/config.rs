@@ -1,12 +1,12 @@
 //! The server's settings: one type for the configuration file (TOML) and the command line
-//! (`crate::args::ServeArgs` writes its flags over the file's). Every field is optional;
+//! (`crate::shell::args::ServeArgs` writes its flags over the file's). Every field is optional;
 //! flags override the file, and the file overrides the defaults. [`Settings::apply`] checks
 //! them all in one place.
 
-use crate::core::FusionConfig;
-use crate::net::NetConfig;
-use crate::record::RecorderConfig;
-use crate::serve::ServeConfig;
+use crate::estimator::FusionConfig;
+use crate::matchlog::record::RecorderConfig;
+use crate::shell::net::NetConfig;
+use crate::shell::serve::ServeConfig;
 use proto::Pitch;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -376,7 +376,7 @@ max_mb = 200
     /// Every TOML example in the operations guide parses and applies.
     #[test]
     fn the_operations_guide_examples_apply() -> Result<(), ConfigError> {
-        let guide = include_str!("../../docs/operations.md");
+        let guide = include_str!("../../../docs/operations.md");
         let blocks: Vec<&str> = guide
             .split("```toml\n")
             .skip(1)
@@ -394,7 +394,7 @@ max_mb = 200
     /// motion model's default, so nothing changes without a `[pitch]`.
     #[test]
     fn the_pitch_restitution_is_the_filters_starting_value() -> Result<(), ConfigError> {
-        use crate::core::{Fusion, FusionConfig};
+        use crate::estimator::{Fusion, FusionConfig};
         use proto::{Camera, Observation, Pose2, Stamp};
         assert_eq!(
             FusionConfig::default(),

@@ -3,9 +3,9 @@
 //! go through here; nothing in it blocks on the network.
 
 use crate::engine::{Engine, RecentObs, RobotView};
-use crate::metrics::ShellStats;
+use crate::matchlog::replay_live::{ReplayControl, ReplayStatus};
 use crate::query::{BallQuery, QueryError, QueryReply};
-use crate::replay_live::{ReplayControl, ReplayStatus};
+use crate::shell::metrics::ShellStats;
 use proto::{BallState, KeySpace, Pitch, Stamp};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -17,7 +17,7 @@ use tokio::sync::broadcast;
 
 /// Where the shell reads time. Live: the system clock. Replay: a clock running through a
 /// recorded match, possibly faster than real time, paused or moved
-/// ([`crate::replay_live::ReplayClock`]).
+/// ([`crate::matchlog::replay_live::ReplayClock`]).
 pub trait Clock: Send + Sync + Debug {
     fn now(&self) -> Stamp;
 }
@@ -424,6 +424,6 @@ impl Live {
                 .store(log.queued_bytes(), Relaxed);
         }
         let inner = self.lock();
-        crate::metrics::render(&inner.engine, &self.stats, self.clock.now())
+        crate::shell::metrics::render(&inner.engine, &self.stats, self.clock.now())
     }
 }

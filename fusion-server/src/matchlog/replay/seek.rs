@@ -2,7 +2,7 @@
 //! nearest earlier snapshot (or the start) through the same pure engine. Time is the log's.
 
 use crate::engine::{Engine, EngineConfig};
-use crate::mcap_read::LogMessage;
+use crate::matchlog::read::LogMessage;
 use proto::{KeySpace, Stamp};
 
 /// Match time between two snapshots the seeker keeps.
@@ -84,7 +84,7 @@ impl Seeker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::record::test_support::T0_NS;
+    use crate::matchlog::record::test_support::T0_NS;
     use proto::{Camera, Observation, Pose2};
 
     /// `seconds` of one robot seeing a ball roll slowly along x at 10 Hz.

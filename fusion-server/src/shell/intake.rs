@@ -7,7 +7,7 @@
 //! The queue is bounded by count and by bytes; what does not fit is dropped and counted
 //! as a rejection with reason `queue_full`.
 
-use crate::live::Live;
+use crate::shell::live::Live;
 use proto::Stamp;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
@@ -135,8 +135,8 @@ fn work(live: &Live, rx: &Receiver<Input>, queued_bytes: &AtomicU64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::live::Clock;
-    use crate::serve::{ServeConfig, shared};
+    use crate::shell::live::Clock;
+    use crate::shell::serve::{ServeConfig, shared};
     use proto::{Camera, Observation, Pose2};
     use std::sync::atomic::AtomicU64;
     use std::sync::mpsc::channel;

@@ -231,9 +231,9 @@ mod tests {
     use std::time::Duration;
 
     use super::*;
-    use crate::mcap_read::{read_log, read_logs};
-    use crate::record::LogCompression;
-    use crate::record::test_support::*;
+    use crate::matchlog::read::{read_log, read_logs};
+    use crate::matchlog::record::LogCompression;
+    use crate::matchlog::record::test_support::*;
 
     #[test]
     fn queued_records_are_written_and_finish_returns_the_files() {

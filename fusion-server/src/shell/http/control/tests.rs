@@ -3,9 +3,9 @@
 
 use super::*;
 use crate::engine::{Engine, EngineConfig};
-use crate::mcap_read::LogMessage;
-use crate::record::test_support::logged_observation;
-use crate::replay_live::{Deliver, PlayConfig, play};
+use crate::matchlog::read::LogMessage;
+use crate::matchlog::record::test_support::logged_observation;
+use crate::matchlog::replay_live::{Deliver, PlayConfig, play};
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
 use std::time::{Duration, Instant};
@@ -105,7 +105,7 @@ async fn serve_http(live: Arc<Live>) -> SocketAddr {
         .await
         .expect("listener");
     let addr = listener.local_addr().expect("address");
-    let app = crate::http::app(live).into_make_service_with_connect_info::<SocketAddr>();
+    let app = crate::shell::http::app(live).into_make_service_with_connect_info::<SocketAddr>();
     tokio::spawn(axum::serve(listener, app).into_future());
     addr
 }
@@ -350,7 +350,7 @@ async fn a_live_server_says_it_is_not_replaying() {
     let live = Arc::new(Live::new(
         Engine::new(EngineConfig::default()),
         KeySpace::default(),
-        Arc::new(crate::live::SystemClock),
+        Arc::new(crate::shell::live::SystemClock),
         4,
         false,
         None,

@@ -2,7 +2,7 @@
 //! often it reports something the other robots do not see.
 
 use super::{ObsInput, Tracker};
-use crate::core::filter::Innovation;
+use crate::estimator::filter::Innovation;
 use proto::Pose2;
 use std::sync::Arc;
 

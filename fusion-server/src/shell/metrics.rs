@@ -83,7 +83,7 @@ pub struct ShellStats {
     /// Live-stream clients dropped because a frame could not be sent in time.
     pub ws_send_timeouts: AtomicU64,
     /// The HTTP listener's connections and deadlines.
-    pub http: std::sync::Arc<crate::http::guard::GuardStats>,
+    pub http: std::sync::Arc<crate::shell::http::guard::GuardStats>,
 }
 
 impl ShellStats {

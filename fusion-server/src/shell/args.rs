@@ -3,11 +3,11 @@
 //! runs a server (this crate's binary, the harness's demo) flattens [`ServeArgs`] into its
 //! own command line.
 
-use crate::config::{ConfigError, PitchFlags, Settings};
-use crate::live::{Clock, MatchLog, SystemClock};
 use crate::matchlog::McapLog;
-use crate::record::RecorderConfig;
-use crate::serve::ServeConfig;
+use crate::matchlog::record::RecorderConfig;
+use crate::shell::config::{ConfigError, PitchFlags, Settings};
+use crate::shell::live::{Clock, MatchLog, SystemClock};
+use crate::shell::serve::ServeConfig;
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::PathBuf;

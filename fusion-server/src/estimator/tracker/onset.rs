@@ -17,7 +17,7 @@
 //! second sighting is already beyond the gate is still the same ball.
 
 use super::{Track, Tracker};
-use crate::core::filter::{BallFilter, Learn, ProcessNoise};
+use crate::estimator::filter::{BallFilter, Learn, ProcessNoise};
 use nalgebra::{Matrix2, Vector2};
 
 /// Sightings a track keeps for change-point search...

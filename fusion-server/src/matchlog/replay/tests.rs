@@ -1,5 +1,5 @@
 use super::*;
-use crate::record::test_support::{T0_NS, logged_observation};
+use crate::matchlog::record::test_support::{T0_NS, logged_observation};
 use proto::Observation;
 
 const T0: Stamp = Stamp(T0_NS);

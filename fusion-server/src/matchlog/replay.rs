@@ -8,9 +8,9 @@
 //! A state at time T is the engine's estimate at T after every message received at or
 //! before T: what the live server would have published at T.
 
-use crate::core::FusionCounters;
 use crate::engine::{Engine, EngineConfig};
-use crate::mcap_read::LogMessage;
+use crate::estimator::FusionCounters;
+use crate::matchlog::read::LogMessage;
 use proto::{BallState, KeySpace, ModelParams, Stamp};
 use std::collections::BTreeMap;
 

@@ -1,0 +1,14 @@
+//! The I/O shell around the pure layers: the Zenoh session and its one publisher task
+//! ([`serve`]), observations taken off the network threads ([`intake`]) into the shared
+//! state ([`live`]), HTTP and the live stream ([`http`], whose [`http::guard`] bounds
+//! connections), [`metrics`], Zenoh settings ([`net`]) and the settings of a server from
+//! its file and flags ([`config`], [`args`]).
+
+pub mod args;
+pub mod config;
+pub mod http;
+pub mod intake;
+pub mod live;
+pub mod metrics;
+pub mod net;
+pub mod serve;
