@@ -9,7 +9,7 @@
 //! and frozen (Schmidt "consider" states) where the data would mislead them.
 
 use super::motion::{Bounds, Flight, MotionModel, Piece, fly};
-use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
+use nalgebra::{Cholesky, Const, Matrix2, SMatrix, SVector, Vector2};
 
 pub type State = SVector<f64, 6>;
 pub type Cov = SMatrix<f64, 6, 6>;
@@ -41,12 +41,27 @@ pub struct ProcessNoise {
     pub bounce_tangential_frac: f64,
 }
 
-/// What an observation would change: innovation, its covariance and Mahalanobis distance².
+/// What an observation would change: innovation, its covariance and Mahalanobis distance²
+/// (infinite when the covariance is not positive definite).
 #[derive(Debug, Clone, Copy)]
 pub struct Innovation {
     pub y: Vector2<f64>,
     pub s: Matrix2<f64>,
     pub d2: f64,
+}
+
+/// Why an update could not be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum FilterError {
+    #[error("the innovation covariance is not positive definite")]
+    SingularInnovation,
+}
+
+/// The innovation with the one factorisation of its covariance that both the distance and
+/// the gain use.
+struct Factored {
+    innovation: Innovation,
+    s_chol: Cholesky<f64, Const<2>>,
 }
 
 /// Which model parameters an observation may correct (the others are "consider" states).
@@ -65,10 +80,10 @@ pub struct ModelPrior {
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct BallFilter {
-    pub x: State,
-    pub p: Cov,
+    x: State,
+    p: Cov,
     /// Filter time in seconds since the fusion epoch.
-    pub t_s: f64,
+    t_s: f64,
 }
 
 impl BallFilter {
@@ -93,6 +108,37 @@ impl BallFilter {
         p[(DECEL, DECEL)] = decel_var;
         p[(RESTITUTION, RESTITUTION)] = restitution_var;
         BallFilter { x, p, t_s }
+    }
+
+    /// The mean: [x, y, vx, vy, decel, restitution].
+    pub fn state(&self) -> &State {
+        &self.x
+    }
+
+    /// The covariance of [`state`](Self::state).
+    pub fn covariance(&self) -> &Cov {
+        &self.p
+    }
+
+    /// Filter time in seconds since the fusion epoch.
+    pub fn time_s(&self) -> f64 {
+        self.t_s
+    }
+
+    /// Sets component `k` of the state to `value` with `variance`, uncorrelated with the
+    /// others: what a prior on it alone says (a forgotten velocity, a carried-over model).
+    pub fn reset_component(&mut self, k: usize, value: f64, variance: f64) {
+        self.x[k] = value;
+        for j in 0..6 {
+            self.p[(k, j)] = 0.0;
+            self.p[(j, k)] = 0.0;
+        }
+        self.p[(k, k)] = variance;
+    }
+
+    /// Keeps the restitution within `[lo, hi]` (a learning step's bound).
+    pub fn clamp_restitution(&mut self, lo: f64, hi: f64) {
+        self.x[RESTITUTION] = self.x[RESTITUTION].clamp(lo, hi);
     }
 
     pub fn position(&self) -> [f64; 2] {
@@ -131,23 +177,49 @@ impl BallFilter {
         Some(flight)
     }
 
-    pub fn innovation(&self, z: [f64; 2], r: &Matrix2<f64>) -> Innovation {
+    /// The innovation of `z` (covariance `r`) and the Cholesky factor of its covariance.
+    fn factor(&self, z: [f64; 2], r: &Matrix2<f64>) -> Result<Factored, FilterError> {
         let y = Vector2::new(z[0] - self.x[0], z[1] - self.x[1]);
         let s = self.p.fixed_view::<2, 2>(0, 0) + r;
-        let d2 = s
-            .try_inverse()
-            .map_or(f64::INFINITY, |s_inv| (y.transpose() * s_inv * y)[(0, 0)]);
-        Innovation { y, s, d2 }
+        let s_chol = Cholesky::new(s).ok_or(FilterError::SingularInnovation)?;
+        let d2 = y.dot(&s_chol.solve(&y));
+        Ok(Factored {
+            innovation: Innovation { y, s, d2 },
+            s_chol,
+        })
+    }
+
+    /// What observing `z` with covariance `r` would change; its distance is infinite when
+    /// the innovation covariance is not positive definite.
+    pub fn innovation(&self, z: [f64; 2], r: &Matrix2<f64>) -> Innovation {
+        match self.factor(z, r) {
+            Ok(f) => f.innovation,
+            Err(_) => Innovation {
+                y: Vector2::new(z[0] - self.x[0], z[1] - self.x[1]),
+                s: self.p.fixed_view::<2, 2>(0, 0) + r,
+                d2: f64::INFINITY,
+            },
+        }
     }
 
     /// Covariance-weighted update with measurement covariance `r`. `learn` says whether the
-    /// deceleration and restitution states may be corrected by this observation.
-    pub fn update(&mut self, z: [f64; 2], r: &Matrix2<f64>, learn: Learn) -> Innovation {
-        let inn = self.innovation(z, r);
-        let Some(s_inv) = inn.s.try_inverse() else {
-            return inn;
-        };
-        let mut k: SMatrix<f64, 6, 2> = self.p.fixed_view::<6, 2>(0, 0) * s_inv;
+    /// deceleration and restitution states may be corrected by this observation. An
+    /// innovation covariance that is not positive definite leaves the filter as it was and
+    /// is an error.
+    pub fn update(
+        &mut self,
+        z: [f64; 2],
+        r: &Matrix2<f64>,
+        learn: Learn,
+    ) -> Result<Innovation, FilterError> {
+        let Factored {
+            innovation: inn,
+            s_chol,
+        } = self.factor(z, r)?;
+        // K = P Hᵀ S⁻¹, from Kᵀ = S⁻¹ H P (S and P symmetric).
+        let mut k: SMatrix<f64, 6, 2> = s_chol
+            .solve(&self.p.fixed_view::<2, 6>(0, 0).into_owned())
+            .transpose();
         if !learn.decel {
             k.row_mut(DECEL).fill(0.0);
         }
@@ -164,7 +236,7 @@ impl BallFilter {
         self.p = 0.5 * (self.p + self.p.transpose());
         self.x[DECEL] = self.x[DECEL].clamp(DECEL_RANGE.0, DECEL_RANGE.1);
         self.x[RESTITUTION] = self.x[RESTITUTION].clamp(RESTITUTION_RANGE.0, RESTITUTION_RANGE.1);
-        inn
+        Ok(inn)
     }
 }
 
@@ -355,14 +427,11 @@ mod tests {
                 f.predict_to(t, &MotionModel::default(), &bounds(), &noise());
                 prop_assert!(is_symmetric_psd(&f.p));
                 let rm = Matrix2::new(r, 0.3 * r, 0.3 * r, 2.0 * r);
-                f.update(
-                    [zx, zy],
-                    &rm,
-                    Learn {
-                        decel: true,
-                        restitution: true,
-                    },
-                );
+                let learn = Learn {
+                    decel: true,
+                    restitution: true,
+                };
+                prop_assert!(f.update([zx, zy], &rm, learn).is_ok());
                 prop_assert!(is_symmetric_psd(&f.p), "{}", f.p);
             }
         }
@@ -442,13 +511,27 @@ mod tests {
     }
 
     #[test]
+    fn an_innovation_covariance_that_is_not_positive_definite_is_refused() {
+        let mut f = filter_at([0.0, 0.0], [0.0, 0.0]);
+        let before = f.clone();
+        // A measurement covariance cancelling the position's: S is zero.
+        let r = -f.covariance().fixed_view::<2, 2>(0, 0).into_owned();
+        assert_eq!(
+            f.update([0.1, 0.1], &r, Learn::default()).err(),
+            Some(FilterError::SingularInnovation)
+        );
+        assert_eq!(f, before, "the filter is left as it was");
+        assert!(f.innovation([0.1, 0.1], &r).d2.is_infinite());
+    }
+
+    #[test]
     fn update_pulls_towards_the_measurement_by_covariance() {
         let mut f = filter_at([0.0, 0.0], [0.0, 0.0]);
         // Confident in y, doubtful in x: the update moves x more than y.
         let r = Matrix2::new(1e-2, 0.0, 0.0, 1e-6);
         f.p[(0, 0)] = 1e-3;
         f.p[(1, 1)] = 1e-3;
-        f.update([0.1, 0.1], &r, Learn::default());
+        assert!(f.update([0.1, 0.1], &r, Learn::default()).is_ok());
         assert!(f.x[0] > 0.0 && f.x[0] < 0.02, "{}", f.x[0]);
         assert!(f.x[1] > 0.09, "{}", f.x[1]);
         assert_eq!(f.x[DECEL], 0.3);

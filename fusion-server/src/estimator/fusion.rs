@@ -6,7 +6,7 @@
 //! in-order arrival would have given. Older ones are counted and dropped. The fused
 //! estimate is never fed back in as an observation.
 
-use super::filter::{BallFilter, DECEL, RESTITUTION, propagate};
+use super::filter::{BallFilter, DECEL, RESTITUTION};
 use super::intercept::{InterceptSolution, intercept};
 use super::motion::{Bounds, speed};
 use super::predict;
@@ -104,6 +104,9 @@ pub struct FusionCounters {
     pub held_in_hypotheses: u64,
     /// Kicks the tracker inferred from runs of surprising sightings.
     pub kicks_inferred: u64,
+    /// Observations the filter could not apply: their innovation covariance was not
+    /// positive definite.
+    pub singular_updates: u64,
 }
 
 /// Finite numbers and a symmetric positive-definite covariance: what the filter can use.
@@ -190,6 +193,7 @@ impl Fusion {
             outside_walls: self.tracker().outside_walls(),
             held_in_hypotheses: self.tracker().held_in_hypotheses(),
             kicks_inferred: self.tracker().kicks_inferred(),
+            singular_updates: self.tracker().singular_updates(),
             ..self.counters
         }
     }
@@ -355,18 +359,8 @@ impl Fusion {
         let track = tracker.main()?;
         let mut f = track.filter.clone();
         let t_s = self.t_of(at);
-        if t_s > f.t_s {
-            let noise = tracker.noise_for(track);
-            let (x, p, _) = propagate(
-                &f.x,
-                &f.p,
-                t_s - f.t_s,
-                &tracker.config().motion,
-                tracker.bounds(),
-                &noise,
-            );
-            f = BallFilter { x, p, t_s };
-        }
+        let noise = tracker.noise_for(track);
+        f.predict_to(t_s, &tracker.config().motion, tracker.bounds(), &noise);
         Some(f)
     }
 
@@ -375,7 +369,7 @@ impl Fusion {
         let tracker = self.tracker();
         let track = tracker.main()?;
         let f = self.filter_at(at)?;
-        let since_seen_s = f.t_s - track.last_hit_s;
+        let since_seen_s = f.time_s() - track.last_hit_s;
         let status = if since_seen_s > self.cfg.lost_after_s {
             BallStatus::Lost
         } else if since_seen_s > self.cfg.coasting_after_s {
@@ -388,7 +382,7 @@ impl Fusion {
         let mut covariance = [0.0; 16];
         for i in 0..4 {
             for j in 0..4 {
-                covariance[i * 4 + j] = f.p[(i, j)];
+                covariance[i * 4 + j] = f.covariance()[(i, j)];
             }
         }
         let contributors = track
@@ -399,7 +393,7 @@ impl Fusion {
         let (decel_samples, restitution_samples) = tracker.learning_counts();
         Some(BallState {
             version: proto::VERSION,
-            stamp: self.stamp_of(f.t_s),
+            stamp: self.stamp_of(f.time_s()),
             position_m: f.position(),
             velocity_mps: f.velocity(),
             covariance,
@@ -407,8 +401,8 @@ impl Fusion {
             last_seen: Some(self.stamp_of(track.last_hit_s)),
             contributors,
             model: ModelParams {
-                rolling_decel_mps2: f.x[DECEL],
-                wall_restitution: f.x[RESTITUTION],
+                rolling_decel_mps2: f.state()[DECEL],
+                wall_restitution: f.state()[RESTITUTION],
                 decel_samples,
                 restitution_samples,
             },
@@ -423,7 +417,7 @@ impl Fusion {
             f.velocity(),
             &f.model(&tracker.config().motion),
             tracker.bounds(),
-            self.stamp_of(f.t_s),
+            self.stamp_of(f.time_s()),
             horizon_s,
             self.cfg.sample_dt_s,
         )

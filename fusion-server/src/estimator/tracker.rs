@@ -109,6 +109,8 @@ pub struct Tracker {
     outside_walls: u64,
     /// Kicks inferred from surprising updates.
     kicks_inferred: u64,
+    /// Observations whose innovation covariance could not be factored: not applied.
+    singular_updates: u64,
     /// Observations that went to hypotheses other than the estimate (waiting for promotion,
     /// or phantoms).
     held: u64,
@@ -137,6 +139,7 @@ impl Tracker {
             next_id: 1,
             decel_updates: 0,
             kicks_inferred: 0,
+            singular_updates: 0,
             held: 0,
             restitution_updates: 0,
             outside_walls: 0,
@@ -188,6 +191,12 @@ impl Tracker {
         self.kicks_inferred
     }
 
+    /// Observations not applied because their innovation covariance was not positive
+    /// definite (a numerical failure the filter refuses rather than hides).
+    pub fn singular_updates(&self) -> u64 {
+        self.singular_updates
+    }
+
     /// Observations applied to hypotheses that were not the estimate at the time.
     pub fn held_in_hypotheses(&self) -> u64 {
         self.held
@@ -206,15 +215,15 @@ impl Tracker {
         noise.accel_m2ps3 += cfg.accel_speed_gain * s * s;
         // Near a robot the ball may be kicked at any moment; but only while it is being
         // watched: an unseen ball's uncertainty must not balloon until anything fits.
-        let watched = track.filter.t_s - track.last_hit_s < WATCHED_S;
+        let watched = track.filter.time_s() - track.last_hit_s < WATCHED_S;
         if watched
-            && (self.near_robot(track.filter.position(), track.filter.t_s)
-                || track.filter.t_s < track.boost_until_s)
+            && (self.near_robot(track.filter.position(), track.filter.time_s())
+                || track.filter.time_s() < track.boost_until_s)
         {
             noise.accel_m2ps3 = noise.accel_m2ps3.max(cfg.near_robot_accel_m2ps3);
             noise.rest_vel_m2ps3 = noise.rest_vel_m2ps3.max(cfg.near_robot_accel_m2ps3);
         }
-        if watched && track.filter.t_s < track.boost_until_s {
+        if watched && track.filter.time_s() < track.boost_until_s {
             // Just born or just kicked: the velocity is unknown, not "probably zero".
             noise.rest_velocity_tau_s = f64::INFINITY;
         }
@@ -321,8 +330,11 @@ impl Tracker {
         for i in 0..self.tracks.len() {
             let noise = self.noise_for(&self.tracks[i]);
             let track = &mut self.tracks[i];
-            let velocity_var = [track.filter.p[(2, 2)], track.filter.p[(3, 3)]];
-            let flown_from_s = track.filter.t_s;
+            let velocity_var = [
+                track.filter.covariance()[(2, 2)],
+                track.filter.covariance()[(3, 3)],
+            ];
+            let flown_from_s = track.filter.time_s();
             let Some(flight) = track
                 .filter
                 .predict_to(t_s, &cfg.motion, &self.bounds, &noise)
@@ -343,7 +355,7 @@ impl Tracker {
                 && sigma_n <= cfg.bounce_learn_max_rel_sigma * v_n
                 && bounce_t_s - track.last_hit_s <= cfg.bounce_learn_seen_s;
             track.bounce = well_observed.then(|| BounceLearning {
-                restitution_before: track.filter.x[RESTITUTION],
+                restitution_before: track.filter.state()[RESTITUTION],
                 until_s: bounce_t_s + cfg.bounce_learn_window_s,
                 counted: false,
             });
@@ -382,20 +394,20 @@ impl Tracker {
             && track.bounce.is_some_and(|b| o.t_s <= b.until_s);
         let max_step = cfg.restitution_max_step;
         let track = &mut self.tracks[i];
-        track.filter.update(
-            o.position_m,
-            r_eff,
-            Learn {
-                decel: learn_decel,
-                restitution: learn_restitution,
-            },
-        );
+        let learn = Learn {
+            decel: learn_decel,
+            restitution: learn_restitution,
+        };
+        if track.filter.update(o.position_m, r_eff, learn).is_err() {
+            self.singular_updates += 1;
+            return;
+        }
         if let Some(b) = track.bounce.as_mut().filter(|_| learn_restitution) {
             let (lo, hi) = (
                 b.restitution_before - max_step,
                 b.restitution_before + max_step,
             );
-            track.filter.x[RESTITUTION] = track.filter.x[RESTITUTION].clamp(lo, hi);
+            track.filter.clamp_restitution(lo, hi);
             if !b.counted {
                 // Count each bounce once, at the first observation after it that informs it.
                 b.counted = true;
@@ -428,10 +440,13 @@ impl Tracker {
         let cfg = &self.cfg;
         let params = match self.main() {
             Some(m) => ModelPrior {
-                decel: (m.filter.x[DECEL], m.filter.p[(DECEL, DECEL)]),
+                decel: (
+                    m.filter.state()[DECEL],
+                    m.filter.covariance()[(DECEL, DECEL)],
+                ),
                 restitution: (
-                    m.filter.x[RESTITUTION],
-                    m.filter.p[(RESTITUTION, RESTITUTION)],
+                    m.filter.state()[RESTITUTION],
+                    m.filter.covariance()[(RESTITUTION, RESTITUTION)],
                 ),
             },
             None => ModelPrior {
@@ -487,20 +502,18 @@ impl Tracker {
         if let Some(old) = self.main() {
             // The floor and the walls did not change: keep what was learned about them.
             let keep = ModelPrior {
-                decel: (old.filter.x[DECEL], old.filter.p[(DECEL, DECEL)]),
+                decel: (
+                    old.filter.state()[DECEL],
+                    old.filter.covariance()[(DECEL, DECEL)],
+                ),
                 restitution: (
-                    old.filter.x[RESTITUTION],
-                    old.filter.p[(RESTITUTION, RESTITUTION)],
+                    old.filter.state()[RESTITUTION],
+                    old.filter.covariance()[(RESTITUTION, RESTITUTION)],
                 ),
             };
             let f = &mut self.tracks[i].filter;
             for (k, (v, var)) in [(DECEL, keep.decel), (RESTITUTION, keep.restitution)] {
-                f.x[k] = v;
-                for j in 0..6 {
-                    f.p[(k, j)] = 0.0;
-                    f.p[(j, k)] = 0.0;
-                }
-                f.p[(k, k)] = var;
+                f.reset_component(k, v, var);
             }
         }
         let tr = &mut self.tracks[i];
@@ -528,8 +541,9 @@ impl Tracker {
         let (Some(m), Some(c)) = (self.main(), self.tracks.get(i)) else {
             return false;
         };
-        let dx = c.filter.x.fixed_rows::<4>(0) - m.filter.x.fixed_rows::<4>(0);
-        let p = c.filter.p.fixed_view::<4, 4>(0, 0) + m.filter.p.fixed_view::<4, 4>(0, 0);
+        let dx = c.filter.state().fixed_rows::<4>(0) - m.filter.state().fixed_rows::<4>(0);
+        let p = c.filter.covariance().fixed_view::<4, 4>(0, 0)
+            + m.filter.covariance().fixed_view::<4, 4>(0, 0);
         p.try_inverse()
             .is_some_and(|pi| (dx.transpose() * pi * dx)[(0, 0)] < 1.0)
     }

@@ -72,15 +72,15 @@ fn main() {
                     "{t:.2} track {} main={} p=({:.2},{:.2}) v=({:.2},{:.2}) hits={} robots={:?} last={:.2} sd=({:.3},{:.3})",
                     track.id,
                     tr.main().is_some_and(|m| m.id == track.id),
-                    f.x[0],
-                    f.x[1],
-                    f.x[2],
-                    f.x[3],
+                    f.state()[0],
+                    f.state()[1],
+                    f.state()[2],
+                    f.state()[3],
                     track.recent_hits(tr.t_s, 0.4),
                     track.contributors(tr.t_s, 0.4),
                     track.last_hit_s - 0.0 * i as f64,
-                    f.p[(0, 0)].sqrt(),
-                    f.p[(2, 2)].sqrt(),
+                    f.covariance()[(0, 0)].sqrt(),
+                    f.covariance()[(2, 2)].sqrt(),
                 );
             }
         }
@@ -113,8 +113,8 @@ fn main() {
             v[0],
             v[1],
             fusion.tracker().tracks().len(),
-            f.x[4],
-            f.x[5]
+            f.state()[4],
+            f.state()[5]
         );
     }
     eprintln!("{:?}", fusion.counters());

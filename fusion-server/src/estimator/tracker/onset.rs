@@ -74,17 +74,17 @@ impl Tracker {
         let mut f = before.clone();
         let vv = self.cfg.spawn_velocity_sigma_mps.powi(2);
         for k in 2..4 {
-            for j in 0..6 {
-                f.p[(k, j)] = 0.0;
-                f.p[(j, k)] = 0.0;
-            }
-            f.p[(k, k)] = vv;
+            let v = f.state()[k];
+            f.reset_component(k, v, vv);
         }
         let noise = self.kick_noise();
         let mut cost = 0.0;
         for s in sightings {
             f.predict_to(s.t_s, &self.cfg.motion, &self.bounds, &noise);
-            cost += f.update(s.z, &s.r, Learn::default()).d2;
+            // A sighting the filter cannot take makes this flight impossible.
+            cost += f
+                .update(s.z, &s.r, Learn::default())
+                .map_or(f64::INFINITY, |inn| inn.d2);
         }
         f.predict_to(t_s, &self.cfg.motion, &self.bounds, &noise);
         (f, cost)
@@ -123,11 +123,11 @@ impl Tracker {
         let residual = |t_s: f64, z: [f64; 2]| {
             let mut f = first.before.clone();
             f.predict_to(t_s, &cfg.motion, &self.bounds, &self.kick_noise());
-            Vector2::new(z[0] - f.x[0], z[1] - f.x[1])
+            Vector2::new(z[0] - f.state()[0], z[1] - f.state()[1])
         };
         let y_first = Vector2::new(
-            first.z[0] - first.before.x[0],
-            first.z[1] - first.before.x[1],
+            first.z[0] - first.before.state()[0],
+            first.z[1] - first.before.state()[1],
         );
         let y_now = residual(now.t_s, now.z);
         let aligned = recent

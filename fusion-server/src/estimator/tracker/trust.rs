@@ -71,7 +71,7 @@ impl Tracker {
         if raw > 60.0 {
             return; // Another object altogether, not noise.
         }
-        let prior = (r_inv * m.filter.p.fixed_view::<2, 2>(0, 0)).trace();
+        let prior = (r_inv * m.filter.covariance().fixed_view::<2, 2>(0, 0)).trace();
         let sample = ((raw - prior) / 2.0).clamp(0.0, 30.0);
         let (lo, hi) = self.cfg.trust_range;
         let alpha = self.cfg.trust_alpha;
