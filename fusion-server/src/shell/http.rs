@@ -77,7 +77,11 @@ fn error(status: StatusCode, msg: impl ToString) -> Response {
 }
 
 async fn state(State(live): State<Arc<Live>>) -> Response {
-    json_text(live.view_json())
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        live.current_view().to_string(),
+    )
+        .into_response()
 }
 
 async fn robots(State(live): State<Arc<Live>>) -> Response {
@@ -177,7 +181,7 @@ async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     let mut rx = live.stream.subscribe();
     live.stats.ws_clients.fetch_add(1, Relaxed);
     let limit = live.ws_send_timeout();
-    let first = live.view_json();
+    let first = live.current_view().to_string();
     let mut open = send_within(&live, &mut socket, first, limit).await;
     while open {
         tokio::select! {

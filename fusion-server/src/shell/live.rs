@@ -1,6 +1,9 @@
 //! The live server's shared state: the engine behind a lock, the clock, the counters, the
 //! live stream and the match log. Zenoh callbacks, the publisher task and HTTP handlers all
-//! go through here; nothing in it blocks on the network.
+//! go through here; nothing in it blocks on the network, and nothing in it publishes: the
+//! publisher task (`shell::serve`) asks for a [`Publication`] and sends it. Each state is
+//! serialised once: the wire payload and the view, which the live stream and
+//! `GET /api/state` share.
 
 use crate::engine::{Engine, RecentObs, RobotView};
 use crate::matchlog::replay_live::{ReplayControl, ReplayStatus};
@@ -84,6 +87,14 @@ pub enum ControlAccess {
     Token(String),
 }
 
+/// One state to publish: the wire payload (none before the ball is first seen) and, on
+/// the regular ticks, the view the live stream and `GET /api/state` serve.
+#[derive(Debug, Clone, Default)]
+pub struct Publication {
+    pub payload: Option<Vec<u8>>,
+    pub view: Option<Arc<str>>,
+}
+
 #[derive(Debug)]
 struct Inner {
     engine: Engine,
@@ -105,10 +116,14 @@ pub struct Live {
     pub stats: ShellStats,
     /// One frame per published state; slow readers lose the oldest frames.
     pub stream: broadcast::Sender<Arc<str>>,
-    /// Where states go on Zenoh, once the session has declared it.
-    publisher: OnceLock<zenoh::pubsub::Publisher<'static>>,
-    /// Publish a state right after each accepted observation, from the receiving thread.
+    /// Publish a state right after accepted observations (the publisher task is woken).
     pub publish_on_update: bool,
+    /// Wakes the publisher task after an accepted observation, with `publish_on_update`.
+    pub updated: tokio::sync::Notify,
+    /// The last published view and when it was made; served while younger than
+    /// `view_max_age`.
+    last_view: Mutex<Option<(Instant, Arc<str>)>>,
+    view_max_age: OnceLock<Duration>,
     log: Option<Arc<dyn MatchLog>>,
     last_reject_log: Mutex<Option<Instant>>,
     /// The replay's control, when the server replays a match log.
@@ -137,8 +152,10 @@ impl Live {
             clock,
             stats: ShellStats::default(),
             stream,
-            publisher: OnceLock::new(),
             publish_on_update,
+            updated: tokio::sync::Notify::new(),
+            last_view: Mutex::new(None),
+            view_max_age: OnceLock::new(),
             log,
             last_reject_log: Mutex::new(None),
             replay: OnceLock::new(),
@@ -153,6 +170,12 @@ impl Live {
         if self.replay.set(control).is_err() {
             tracing::warn!("the replay control was already set");
         }
+    }
+
+    /// `GET /api/state` serves the last published view while it is younger than `age`
+    /// (set once, by the publisher task, to a little more than its tick).
+    pub fn set_view_max_age(&self, age: Duration) {
+        let _ = self.view_max_age.set(age);
     }
 
     pub fn replay(&self) -> Option<&Arc<ReplayControl>> {
@@ -283,7 +306,7 @@ impl Live {
                 inner.unpublished.push(now);
                 drop(inner);
                 if self.publish_on_update {
-                    self.publish_now(false);
+                    self.updated.notify_one();
                 }
             }
             Err(e) => {
@@ -326,57 +349,41 @@ impl Live {
         }
     }
 
-    /// Takes the state to publish now: its wire payload and the live-stream frame (when
-    /// `frame` is asked for and someone is watching). `None` until a ball has been seen.
-    pub fn take_state(&self, frame: bool) -> Option<(Vec<u8>, Option<Arc<str>>)> {
+    /// The state to publish now, serialised once: its wire payload (logged, and its
+    /// observations' latency measured) and, when `with_view`, the view for the live stream
+    /// and `GET /api/state`.
+    pub fn publication(&self, with_view: bool) -> Publication {
         let mut inner = self.lock();
         let now = self.clock.now();
-        let state = inner.engine.ball_state(now)?;
-        let payload = proto::encode(&state);
-        if let Some(log) = &self.log {
-            log.log(LogKind::BallState, &self.state_key, now, &payload);
-        }
-        let arrivals = std::mem::take(&mut inner.unpublished);
-        let frame = (frame && self.stream.receiver_count() > 0).then(|| {
-            let view = self.view(&inner, now, Some(state));
+        let state = inner.engine.ball_state(now);
+        let payload = state.as_ref().map(proto::encode);
+        let arrivals = if payload.is_some() {
+            std::mem::take(&mut inner.unpublished)
+        } else {
+            Vec::new()
+        };
+        let view = with_view.then(|| {
+            let view = self.view(&inner, now, state);
             Arc::<str>::from(serde_json::to_string(&view).unwrap_or_default())
         });
         drop(inner);
-        if let Ok(mut h) = self.stats.obs_to_state_s.lock() {
-            for a in arrivals {
-                h.observe(now.secs_since(a));
+        if let Some(p) = &payload {
+            if let Some(log) = &self.log {
+                log.log(LogKind::BallState, &self.state_key, now, p);
             }
-        }
-        self.stats.states_published.fetch_add(1, Relaxed);
-        Some((payload, frame))
-    }
-
-    /// Hands the Zenoh publisher of `{prefix}/ball/state` over (once).
-    pub fn set_publisher(&self, p: zenoh::pubsub::Publisher<'static>) {
-        let _ = self.publisher.set(p);
-    }
-
-    /// Publishes the current state on Zenoh, and on the live stream when `stream` (the
-    /// browsers get the regular ticks, not every update), from the calling thread.
-    pub fn publish_now(&self, stream: bool) {
-        use zenoh::Wait;
-        match self.take_state(stream) {
-            Some((payload, frame)) => {
-                if let Some(p) = self.publisher.get()
-                    && let Err(e) = p.put(payload).wait()
-                {
-                    tracing::warn!("publishing the ball state failed: {e}");
-                }
-                if let Some(f) = frame {
-                    self.broadcast(f);
+            if let Ok(mut h) = self.stats.obs_to_state_s.lock() {
+                for a in arrivals {
+                    h.observe(now.secs_since(a));
                 }
             }
-            // No ball yet: nothing for Zenoh, but watchers still see the robots come and go.
-            None if stream && self.stream.receiver_count() > 0 => {
-                self.broadcast(Arc::from(self.view_json()));
-            }
-            None => {}
+            self.stats.states_published.fetch_add(1, Relaxed);
         }
+        if let Some(v) = &view
+            && let Ok(mut last) = self.last_view.lock()
+        {
+            *last = Some((Instant::now(), v.clone()));
+        }
+        Publication { payload, view }
     }
 
     /// Sends a frame to the live stream (never waits for readers).
@@ -385,7 +392,20 @@ impl Live {
         let _ = self.stream.send(frame);
     }
 
-    /// The current view, as served by `GET /api/state`.
+    /// The view `GET /api/state` serves: the last published one while it is fresh (the
+    /// publisher made it less than a tick ago), else taken now.
+    pub fn current_view(&self) -> Arc<str> {
+        if let Some(max_age) = self.view_max_age.get()
+            && let Ok(last) = self.last_view.lock()
+            && let Some((made, view)) = last.as_ref()
+            && made.elapsed() <= *max_age
+        {
+            return view.clone();
+        }
+        Arc::from(self.view_json())
+    }
+
+    /// The view taken now.
     pub fn view_json(&self) -> String {
         let inner = self.lock();
         let now = self.clock.now();

@@ -203,9 +203,8 @@ pub async fn serve(
         .express(true)
         .await
         .map_err(|e| anyhow::anyhow!("declaring the state publisher: {e}"))?;
-    live.set_publisher(publisher);
 
-    let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let app = crate::shell::http::app(live.clone());
     let mut http_stop = stop_rx.clone();
     // `tap_io` only to get the connection's address to the handlers (the control
@@ -226,19 +225,7 @@ pub async fn serve(
         let _ = stop_tx.send(true);
     });
 
-    let mut tick = tokio::time::interval(Duration::from_secs_f64(1.0 / cfg.state_rate_hz));
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    loop {
-        tokio::select! {
-            _ = tick.tick() => {}
-            _ = stop_rx.wait_for(|s| *s) => break,
-        }
-        let l = live.clone();
-        // Publishing is quick and never waits on readers; keep it off the async workers.
-        if let Err(e) = tokio::task::spawn_blocking(move || l.publish_now(true)).await {
-            tracing::warn!("state publication failed: {e}");
-        }
-    }
+    publish(&live, &publisher, &cfg, stop_rx).await;
     match http_task.await {
         Ok(Ok(())) => {}
         Ok(Err(e)) => tracing::warn!("HTTP server stopped with an error: {e}"),
@@ -250,4 +237,45 @@ pub async fn serve(
         .map_err(|e| anyhow::anyhow!("closing the Zenoh session: {e}"))?;
     tokio::task::spawn_blocking(move || intake.stop()).await?;
     Ok(())
+}
+
+/// The publisher task: the one owner of `{prefix}/ball/state`. On every tick it publishes
+/// the state and hands the view to the live stream; with `publish_on_update` it also
+/// publishes (without a view) when an accepted observation wakes it. Serialising runs off
+/// the async workers. Returns when `stop` turns true.
+async fn publish(
+    live: &Shared,
+    publisher: &zenoh::pubsub::Publisher<'static>,
+    cfg: &ServeConfig,
+    mut stop: tokio::sync::watch::Receiver<bool>,
+) {
+    let period = Duration::from_secs_f64(1.0 / cfg.state_rate_hz);
+    // A little more than a tick: `GET /api/state` serves the last view while it is fresh.
+    live.set_view_max_age(period.mul_f64(1.5));
+    let mut tick = tokio::time::interval(period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        let with_view = tokio::select! {
+            _ = tick.tick() => true,
+            _ = live.updated.notified(), if cfg.publish_on_update => false,
+            _ = stop.wait_for(|s| *s) => break,
+        };
+        let l = live.clone();
+        let publication = match tokio::task::spawn_blocking(move || l.publication(with_view)).await
+        {
+            Ok(p) => p,
+            Err(e) => {
+                tracing::warn!("taking the state to publish failed: {e}");
+                continue;
+            }
+        };
+        if let Some(payload) = publication.payload
+            && let Err(e) = publisher.put(payload).await
+        {
+            tracing::warn!("publishing the ball state failed: {e}");
+        }
+        if let Some(view) = publication.view {
+            live.broadcast(view);
+        }
+    }
 }

@@ -149,9 +149,10 @@ async fn the_stream_pushes_states_and_a_stuck_client_only_loses_frames() -> anyh
     while live.stats.ws_clients.load(Relaxed) == 0 {
         tokio::task::yield_now().await;
     }
-    // The client is subscribed, so the state comes with its stream frame.
-    let (_, state) = live.take_state(true).expect("a state");
-    live.broadcast(state.expect("a frame for the watching client"));
+    // A tick's publication: the wire payload and the view, serialised once.
+    let publication = live.publication(true);
+    assert!(publication.payload.is_some(), "a ball to publish");
+    live.broadcast(publication.view.expect("a view for the stream"));
     let next = ws.next().await.expect("a frame")?;
     assert!(next.to_text()?.contains("\"ball\""));
     assert_eq!(live.stats.states_published.load(Relaxed), 1);
@@ -216,4 +217,25 @@ async fn the_state_shows_recent_sightings_with_reasons_and_rejections() {
     assert!(v["replay"].is_null());
     let latency_s = v["robots"][0]["latency_s"].as_f64().expect("latency");
     assert!((latency_s - 0.05).abs() < 1e-6, "{latency_s}");
+}
+
+/// A state is serialised once per tick: `GET /api/state` serves the published view while
+/// it is fresh, and takes a new one once it is not.
+#[tokio::test]
+async fn the_state_endpoint_serves_the_published_view_while_it_is_fresh() {
+    let (live, clock) = live_with_ball();
+    // Without a publisher task nothing is cached: each request takes the view now.
+    assert!(!Arc::ptr_eq(&live.current_view(), &live.current_view()));
+    live.set_view_max_age(std::time::Duration::from_secs(60));
+    let view = live.publication(true).view.expect("a view");
+    assert!(Arc::ptr_eq(&live.current_view(), &view));
+    let (status, body) = get(app(live.clone()), "/api/state").await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(body, view.to_string());
+    // The next tick replaces it.
+    let later = Stamp(clock.0.load(Ordering::SeqCst)).offset_secs(0.5);
+    clock.0.store(later.0, Ordering::SeqCst);
+    let next = live.publication(true).view.expect("a view");
+    assert!(!Arc::ptr_eq(&next, &view));
+    assert!(Arc::ptr_eq(&live.current_view(), &next));
 }
