@@ -14,7 +14,7 @@ import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { chromium } from "playwright-core";
 import {
-  bin, browserArgs, browserPath, check, fail, failed, freePort, getJson, killAll, lineOf, sleep, start, stop, until,
+  bin, browserArgs, harnessBin, browserPath, check, fail, failed, freePort, getJson, killAll, lineOf, sleep, start, stop, until,
 } from "./support.mjs";
 import { replayChecks } from "./replay.check.mjs";
 
@@ -53,11 +53,11 @@ async function liveChecks(browser) {
   const [httpPort, zenohPort] = [await freePort(), await freePort()];
   let { server, url } = await startServer(httpPort, zenohPort);
   const startNs = (BigInt(Date.now()) * 1_000_000n + 2_000_000_000n).toString();
-  const robotArgs = (only) => ["sim-robots", "--connect", `tcp/127.0.0.1:${zenohPort}`, "--scenario", "match",
+  const robotArgs = (only) => ["--connect", `tcp/127.0.0.1:${zenohPort}`, "--scenario", "match",
     "--seed", "2", "--team-size", String(ROBOTS), "--duration-s", "240", "--start-ns", startNs, "--only", only];
   const others = Array.from({ length: ROBOTS - 1 }, (_, i) => `miro${i + 1}`).join(",");
-  const team = start(robotArgs(others), "robots");
-  const victim = start(robotArgs(VICTIM), VICTIM);
+  const team = start(robotArgs(others), "robots", harnessBin("sim_robots"));
+  const victim = start(robotArgs(VICTIM), VICTIM, harnessBin("sim_robots"));
 
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   const errors = [];

@@ -2,8 +2,11 @@
 
 import { spawn } from "node:child_process";
 import { createServer } from "node:net";
+import { dirname, join } from "node:path";
 
 export const bin = process.env.FUSION_SERVER ?? "target/debug/fusion-server";
+/// A harness program (`sim_robots`, `simulate`), built beside the server by `cargo test --workspace`.
+export const harnessBin = (name) => join(process.env.HARNESS_BIN_DIR ?? dirname(bin), name);
 export const browserPath = process.env.CHROMIUM ?? "/usr/bin/chromium";
 export const browserArgs = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
   "--disable-background-networking", "--disable-component-update", "--disable-sync"];
@@ -21,9 +24,9 @@ export function freePort() {
 
 const running = new Set();
 
-/// A fusion-server process; `lines` collects its standard output.
-export function start(args, name) {
-  const child = spawn(bin, args, { stdio: ["ignore", "pipe", "pipe"], env: { ...process.env, RUST_LOG: "warn,zenoh=error" } });
+/// A fusion-server process (or, with `program`, another); `out` collects its standard output.
+export function start(args, name, program = bin) {
+  const child = spawn(program, args, { stdio: ["ignore", "pipe", "pipe"], env: { ...process.env, RUST_LOG: "warn,zenoh=error" } });
   const proc = { child, name, out: "", err: "", exited: null };
   child.stdout.on("data", (d) => { proc.out += d; });
   child.stderr.on("data", (d) => { proc.err += d; });
