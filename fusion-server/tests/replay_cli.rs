@@ -7,7 +7,8 @@ mod support;
 use fusion_server::matchlog::RecorderSink;
 use fusion_server::matchlog::record::RecorderConfig;
 use fusion_server::matchlog::replay::ReplaySink;
-use proto::{Camera, Observation, Pose2, Stamp};
+use proto::test_support::{isotropic, observation};
+use proto::{Observation, Stamp};
 use std::path::{Path, PathBuf};
 use support::BIN;
 
@@ -30,16 +31,8 @@ fn small_log(dir: &Path) -> PathBuf {
         };
         let at = T0.offset_secs(log_s);
         let obs = Observation {
-            version: proto::VERSION,
-            robot_id: robot.into(),
-            seq: i,
-            camera: Camera::Left,
-            stamp: at.offset_secs(-0.02),
-            position_m,
-            covariance_m2: [1e-4, 0.0, 0.0, 1e-4],
-            confidence: 0.9,
-            robot_pose: Pose2::default(),
-            pixel: None,
+            covariance_m2: isotropic(0.01),
+            ..observation(robot, i, at.offset_secs(-0.02), position_m)
         };
         let topic = format!("rf/robots/{robot}/obs");
         sink.write(&topic, "Observation", at, &proto::encode(&obs));

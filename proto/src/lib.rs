@@ -16,6 +16,8 @@ pub mod net;
 mod pitch;
 pub mod schema;
 mod stamp;
+#[cfg(any(test, feature = "test-support"))]
+pub mod test_support;
 mod validate;
 
 pub use codec::{DecodeError, decode, encode};

@@ -73,21 +73,10 @@ impl RecentObservations {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proto::Pose2;
+    use proto::test_support::observation;
 
     fn obs(seq: u64) -> Observation {
-        Observation {
-            version: proto::VERSION,
-            robot_id: "miro1".into(),
-            seq,
-            camera: Camera::Left,
-            stamp: Stamp(1_000_000_000 * seq),
-            position_m: [0.1, 0.2],
-            covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
-            confidence: 0.9,
-            robot_pose: Pose2::default(),
-            pixel: None,
-        }
+        observation("miro1", seq, Stamp(1_000_000_000 * seq), [0.1, 0.2])
     }
 
     #[test]

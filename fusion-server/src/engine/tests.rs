@@ -1,4 +1,5 @@
 use super::*;
+use proto::test_support::observation;
 use proto::{Camera, Observation, Pose2};
 use std::collections::BTreeSet;
 
@@ -10,20 +11,12 @@ fn at(t_s: f64) -> Stamp {
 
 fn obs(robot: &str, seq: u64, t_s: f64, x_m: f64) -> Observation {
     Observation {
-        version: proto::VERSION,
-        robot_id: robot.into(),
-        seq,
-        camera: Camera::Left,
-        stamp: at(t_s),
-        position_m: [x_m, 0.2],
-        covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
-        confidence: 0.9,
         robot_pose: Pose2 {
             x_m: -1.0,
             y_m: 0.5,
             theta_rad: 0.0,
         },
-        pixel: None,
+        ..observation(robot, seq, at(t_s), [x_m, 0.2])
     }
 }
 

@@ -137,7 +137,7 @@ mod tests {
     use super::*;
     use crate::shell::live::Clock;
     use crate::shell::serve::{ServeConfig, shared};
-    use proto::{Camera, Observation, Pose2};
+    use proto::test_support::observation;
     use std::sync::atomic::AtomicU64;
     use std::sync::mpsc::channel;
 
@@ -151,18 +151,7 @@ mod tests {
     }
 
     fn obs(seq: u64, stamp: Stamp) -> Vec<u8> {
-        proto::encode(&Observation {
-            version: proto::VERSION,
-            robot_id: "miro1".into(),
-            seq,
-            camera: Camera::Left,
-            stamp,
-            position_m: [0.5, 0.1],
-            covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
-            confidence: 0.9,
-            robot_pose: Pose2::default(),
-            pixel: None,
-        })
+        proto::encode(&observation("miro1", seq, stamp, [0.5, 0.1]))
     }
 
     /// Observations received on time are judged on their arrival, however long the engine

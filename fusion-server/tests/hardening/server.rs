@@ -6,7 +6,8 @@
 use fusion_server::shell::live::{Clock, SystemClock};
 use fusion_server::shell::net::{NetConfig, free_loopback_port};
 use fusion_server::shell::serve::{self, ServeConfig, Shared};
-use proto::{Camera, Observation, Pose2, Stamp};
+use proto::test_support::observation;
+use proto::{Observation, Stamp};
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
@@ -16,18 +17,7 @@ pub fn z(e: impl std::fmt::Display) -> anyhow::Error {
 }
 
 pub fn obs(robot: &str, seq: u64, stamp: Stamp, x_m: f64) -> Observation {
-    Observation {
-        version: proto::VERSION,
-        robot_id: robot.into(),
-        seq,
-        camera: Camera::Left,
-        stamp,
-        position_m: [x_m, -0.3],
-        covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
-        confidence: 0.9,
-        robot_pose: Pose2::default(),
-        pixel: None,
-    }
+    observation(robot, seq, stamp, [x_m, -0.3])
 }
 
 pub fn now() -> Stamp {

@@ -1,5 +1,6 @@
 use super::*;
 use proto::Pose2;
+use proto::test_support::{isotropic, observation};
 
 /// A tiny deterministic noise source for synthetic observations.
 pub(super) struct Lcg(pub(super) u64);
@@ -21,20 +22,13 @@ pub(super) const T0: u64 = 1_767_225_600_000_000_000;
 
 pub(super) fn obs(robot: &str, seq: u64, t_s: f64, p: [f64; 2], sigma: f64) -> Observation {
     Observation {
-        version: proto::VERSION,
-        robot_id: robot.to_string(),
-        seq,
-        camera: Camera::Left,
-        stamp: Stamp(T0).offset_secs(t_s),
-        position_m: p,
-        covariance_m2: [sigma * sigma, 0.0, 0.0, sigma * sigma],
-        confidence: 0.9,
+        covariance_m2: isotropic(sigma),
         robot_pose: Pose2 {
             x_m: -1.5,
             y_m: 0.0,
             theta_rad: 0.0,
         },
-        pixel: None,
+        ..observation(robot, seq, Stamp(T0).offset_secs(t_s), p)
     }
 }
 

@@ -3,6 +3,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use proto::test_support::{isotropic, observation};
 use proto::{Camera, Observation, Pose2, Stamp};
 
 use super::{LogCompression, Record, RecorderConfig, Schema, proto_schemas};
@@ -22,16 +23,8 @@ pub(crate) fn proto_schema(name: &str) -> Arc<Schema> {
 /// A real observation by `robot`, encoded as on the wire.
 pub(crate) fn observation_json(robot: &str, seq: u64, stamp: Stamp) -> Vec<u8> {
     proto::encode(&Observation {
-        version: proto::VERSION,
-        robot_id: robot.to_owned(),
-        seq,
-        camera: Camera::Left,
-        stamp,
-        position_m: [0.01 * seq as f64, -0.5],
-        covariance_m2: [0.01, 0.0, 0.0, 0.01],
-        confidence: 0.9,
-        robot_pose: Pose2::default(),
-        pixel: None,
+        covariance_m2: isotropic(0.1),
+        ..observation(robot, seq, stamp, [0.01 * seq as f64, -0.5])
     })
 }
 
