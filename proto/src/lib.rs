@@ -16,6 +16,7 @@ pub mod net;
 mod pitch;
 pub mod schema;
 mod stamp;
+pub mod stats;
 #[cfg(any(test, feature = "test-support"))]
 pub mod test_support;
 mod validate;

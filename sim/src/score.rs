@@ -256,31 +256,8 @@ fn score_stop_and_bounce(run: &SimRun, r: &TickRecord, s: &mut Samples) {
     }
 }
 
-/// The `q`-quantile (0..=1, linear interpolation) of the finite values in `v`; `None` when
-/// there are none.
-pub fn quantile(v: &[f64], q: f64) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if s.is_empty() {
-        return None;
-    }
-    s.sort_by(f64::total_cmp);
-    let pos = q.clamp(0.0, 1.0) * (s.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    Some(s[lo] + (s[hi] - s[lo]) * (pos - lo as f64))
-}
-
-/// The arithmetic mean; `None` for no values.
-pub fn mean(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-}
-
-/// The root mean square; `None` for no values.
-pub fn rms(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt())
-}
+// The workspace's one definition of the statistics it reports.
+pub use proto::stats::{mean, quantile, rms};
 
 /// Median and 90th percentile of a list of errors, and how many there were.
 #[derive(Debug, Clone, Serialize, PartialEq)]

@@ -170,9 +170,8 @@ fn main() {
 }
 
 fn median_text(v: &mut [f64]) -> String {
-    if v.is_empty() {
-        return "n/a".to_string();
+    match proto::stats::median(v) {
+        Some(m) => format!("{m:.3} m/s (n = {})", v.len()),
+        None => "n/a".to_string(),
     }
-    v.sort_by(f64::total_cmp);
-    format!("{:.3} m/s (n = {})", v[v.len() / 2], v.len())
 }
