@@ -10,10 +10,10 @@ mod tracks_cmd;
 
 use anyhow::Context;
 use clap::Parser;
-use std::path::PathBuf;
 use harness::vision::{VisionConfig, evaluate_vision, shipped_lens_error};
 use harness::vision_report::{self, CalibrationCheck};
 use harness::{eval, plots, report};
+use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
 #[command(about = "Evaluate the fusion core against the seed's method and an oracle")]
@@ -282,8 +282,7 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         write_json(path, &results)?;
     }
     if let Some(path) = &args.doc {
-        let mut cmd =
-            String::from("cargo run --release -p harness --bin evaluate -- --photos");
+        let mut cmd = String::from("cargo run --release -p harness --bin evaluate -- --photos");
         if args.photo_count != 400 {
             cmd.push_str(&format!(" --photo-count {}", args.photo_count));
         }

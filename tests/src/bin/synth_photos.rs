@@ -4,9 +4,9 @@
 //! `sim::photo_synth`).
 
 use clap::Parser;
+use harness::photo_set::{PhotoSetSpec, write_photo_set};
 use std::path::PathBuf;
 use std::time::Instant;
-use harness::photo_set::{PhotoSetSpec, write_photo_set};
 
 #[derive(Debug, Parser)]
 #[command(about = "Write randomised labelled ball photos (images/ and YOLO labels/)")]
