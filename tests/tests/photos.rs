@@ -5,9 +5,9 @@
 
 #![allow(clippy::unwrap_used)]
 
-use std::path::{Path, PathBuf};
 use harness::photo_eval::{PhotoEvalConfig, evaluate_photos};
 use harness::photo_set::{PhotoSetSpec, write_photo_set};
+use std::path::{Path, PathBuf};
 
 fn data(dir: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(dir)
