@@ -42,6 +42,9 @@ fn clip_segment(
     y: (f64, f64),
 ) -> Option<((f64, f64), (f64, f64))> {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    if !(dx.is_finite() && dy.is_finite()) {
+        return None; // only for points near ±f64::MAX, far off any plot
+    }
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for (p, q) in [
         (-dx, a.0 - x.0),
@@ -62,7 +65,7 @@ fn clip_segment(
             t1 = t1.min(r);
         }
     }
-    if !(t0 <= t1) || !dx.is_finite() || !dy.is_finite() {
+    if t0 > t1 {
         return None;
     }
     let at = |t: f64| {
