@@ -6,7 +6,6 @@ use sim::score::{Samples, TickRecord, rms, score, tick_count};
 use sim::{Delivery, ObsKind, SimConfig, SimRun};
 use std::collections::BTreeMap;
 use std::sync::Mutex;
-use std::time::Instant;
 
 /// One scenario and seed, scored for every method.
 #[derive(Debug, Clone)]
@@ -104,7 +103,7 @@ pub fn evaluate(
     Ok(results)
 }
 
-/// Calls `job` for every scenario × seed on `jobs` threads, with a progress line on
+/// Calls `job` for every scenario × seed on `jobs` threads, with a progress bar on
 /// stderr; the results come in completion order. The first error fails the whole.
 pub fn for_each_run<T: Send>(
     scenarios: &[&str],
@@ -124,9 +123,9 @@ pub fn for_each_run<T: Send>(
     )
 }
 
-/// Calls `job` for every item on `jobs` threads, with a progress line on stderr naming
-/// each finished item by `label`; the results come in completion order. The first error
-/// fails the whole.
+/// Calls `job` for every item on `jobs` threads, with a progress bar on stderr naming
+/// each finished item by `label` and a summary line at the end; the results come in
+/// completion order. The first error fails the whole.
 pub fn for_each<I: Sync, T: Send>(
     items: &[I],
     jobs: usize,
@@ -137,7 +136,7 @@ pub fn for_each<I: Sync, T: Send>(
     let queue = Mutex::new(items.iter());
     let results = Mutex::new(Vec::with_capacity(total));
     let errors = Mutex::new(Vec::new());
-    let started = Instant::now();
+    let progress = crate::progress::Progress::new(total as u64, "runs");
     std::thread::scope(|scope| {
         for _ in 0..jobs.max(1) {
             scope.spawn(|| {
@@ -148,12 +147,7 @@ pub fn for_each<I: Sync, T: Send>(
                         Ok(r) => {
                             if let Ok(mut res) = results.lock() {
                                 res.push(r);
-                                eprint!(
-                                    "\r[{:>4}/{total}] {:<36}  {:>6.1} s",
-                                    res.len(),
-                                    label(item),
-                                    started.elapsed().as_secs_f64()
-                                );
+                                progress.inc(label(item));
                             }
                         }
                         Err(e) => {
@@ -166,7 +160,7 @@ pub fn for_each<I: Sync, T: Send>(
             });
         }
     });
-    eprintln!();
+    progress.finish();
     let errors = errors.into_inner().unwrap_or_default();
     if let Some(e) = errors.first() {
         anyhow::bail!("run failed: {e}");

@@ -10,6 +10,7 @@ pub mod photo_eval;
 pub mod photo_set;
 pub mod plot;
 pub mod plots;
+pub mod progress;
 pub mod report;
 pub mod scoring;
 pub mod sim_args;

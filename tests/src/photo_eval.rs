@@ -8,6 +8,7 @@
 
 use crate::photo_set::{encode, rendered_views};
 use crate::plot::{Chart, Marker, PALETTE, Series, Style, write_png};
+use crate::progress::Progress;
 use anyhow::{Context, Result};
 use robot_agent::detect::{CandidateClassifier, Detector, DetectorConfig, NoClock};
 use robot_agent::image::RgbImage;
@@ -81,13 +82,14 @@ fn finish(eval: &LabelEval, ms: &[f64]) -> LabelReport {
     eval.report(timing)
 }
 
-/// Scores every set; `progress` gets a line per set.
+/// Scores every set; `progress` counts the photos scored (its length grows as the sets
+/// are found).
 pub fn evaluate_photos(
     cfg: &PhotoEvalConfig,
     detector_cfg: &DetectorConfig,
     classifier: &dyn CandidateClassifier,
     min_probability: f64,
-    progress: &mut dyn FnMut(&str),
+    progress: &Progress,
 ) -> Result<Vec<PhotoSetResult>> {
     let detector = Detector::new(*detector_cfg)?;
     let background_files = robot_agent::image_io::image_files(&cfg.backgrounds)?;
@@ -103,6 +105,7 @@ pub fn evaluate_photos(
         ("held-out rendered pitch", Some(&renders)),
         ("held-out real backgrounds", Some(&pictures)),
     ];
+    progress.add_work(kinds.len() as u64 * cfg.count);
     for (name, frames) in kinds {
         let (mut eval, mut ms) = (LabelEval::new(min_probability), Vec::new());
         for i in 0..cfg.count {
@@ -133,8 +136,8 @@ pub fn evaluate_photos(
                 &detector,
                 classifier,
             )?;
+            progress.inc(name);
         }
-        progress(&format!("{name}: {} photos scored", cfg.count));
         out.push(PhotoSetResult {
             name: name.to_string(),
             source: "simulated",
@@ -143,7 +146,9 @@ pub fn evaluate_photos(
     }
     // Real photos with labelled balls.
     let (mut eval, mut ms) = (LabelEval::new(min_probability), Vec::new());
-    for p in robot_agent::image_io::image_files(&cfg.real_balls.join("images"))? {
+    let real_files = robot_agent::image_io::image_files(&cfg.real_balls.join("images"))?;
+    progress.add_work((real_files.len() + background_files.len()) as u64);
+    for p in real_files {
         let image = robot_agent::image_io::load_rgb(&p)?;
         let stem = p.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
         let xml_path = cfg.real_balls.join("labels").join(format!("{stem}.xml"));
@@ -164,8 +169,8 @@ pub fn evaluate_photos(
             &detector,
             classifier,
         )?;
+        progress.inc("real photos with balls");
     }
-    progress("real photos with balls scored");
     out.push(PhotoSetResult {
         name: "real photos with balls".into(),
         source: "real",
@@ -177,6 +182,7 @@ pub fn evaluate_photos(
         let image = RgbImage::new(frame.width, frame.height, frame.rgb.clone())?;
         let name = p.file_name().and_then(|s| s.to_str()).unwrap_or_default();
         score(&mut eval, &mut ms, name, &image, &[], &detector, classifier)?;
+        progress.inc("real photos without a ball");
     }
     out.push(PhotoSetResult {
         name: "real photos without a ball".into(),

@@ -6,6 +6,7 @@
 //! Backgrounds go round in turn: a procedural carpet, a rendered view of the simulated
 //! pitch (ball removed; fisheye frames of a simulated match) and, when given, a real photo.
 
+use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
 use robot_agent::labels::BallBox;
 use robot_agent::yolo::yolo_line;
@@ -112,12 +113,8 @@ pub fn encode(photo: &SynthPhoto) -> Result<(Vec<u8>, &'static str)> {
 }
 
 /// Writes the set into `out` (which must not hold an earlier set's files), reporting
-/// progress; returns the number of photos with a ball.
-pub fn write_photo_set(
-    spec: &PhotoSetSpec,
-    out: &Path,
-    progress: &mut dyn FnMut(&str),
-) -> Result<usize> {
+/// progress (`progress` counts the photos written); returns the number of photos with a ball.
+pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> Result<usize> {
     let (images, labels) = (out.join("images"), out.join("labels"));
     for dir in [&images, &labels] {
         if dir.exists() && std::fs::read_dir(dir)?.next().is_some() {
@@ -131,7 +128,7 @@ pub fn write_photo_set(
             .with_context(|| format!("reading background {}", p.display()))?;
         pictures.push(frame_of(image));
     }
-    progress(&format!("rendering {} pitch views", spec.rendered));
+    progress.message(format!("rendering {} pitch views", spec.rendered));
     let renders = rendered_views(spec.rendered, spec.seed)?;
     std::fs::write(labels.join("classes.txt"), "ball\n")?;
     let available = |k: &BackgroundKind| match k {
@@ -180,9 +177,7 @@ pub fn write_photo_set(
         }
         std::fs::write(labels.join(format!("{name}.txt")), text)?;
         with_ball += usize::from(!photo.balls.is_empty());
-        if (i + 1) % 100 == 0 || i + 1 == spec.count {
-            progress(&format!("{}/{} photos written", i + 1, spec.count));
-        }
+        progress.inc(name);
     }
     let manifest = Manifest {
         made_by: "synth_photos",

@@ -7,6 +7,7 @@
 
 use harness::photo_eval::{PhotoEvalConfig, evaluate_photos};
 use harness::photo_set::{PhotoSetSpec, write_photo_set};
+use harness::progress::Progress;
 use std::path::{Path, PathBuf};
 
 fn data(dir: &str) -> PathBuf {
@@ -23,8 +24,8 @@ fn held_out_and_real_photos_clear_their_floors() {
     };
     let detector = robot_agent::detect::DetectorConfig::default();
     let classifier = robot_agent::builtin::classifier(&detector).expect("shipped classifier");
-    let results =
-        evaluate_photos(&cfg, &detector, &classifier, 0.5, &mut |_| {}).expect("photo evaluation");
+    let results = evaluate_photos(&cfg, &detector, &classifier, 0.5, &Progress::hidden(0))
+        .expect("photo evaluation");
     let by_name = |n: &str| {
         results
             .iter()
@@ -71,7 +72,7 @@ fn a_written_photo_set_reads_back_as_labelled_photos() {
         rendered: 2,
         kinds: Vec::new(),
     };
-    let with_ball = write_photo_set(&spec, dir.path(), &mut |_| {}).expect("photo set");
+    let with_ball = write_photo_set(&spec, dir.path(), &Progress::hidden(9)).expect("photo set");
     assert!(with_ball > 0 && with_ball <= 9);
     let classes = std::fs::read_to_string(dir.path().join("labels/classes.txt")).unwrap();
     let names = robot_agent::yolo::parse_classes_txt(&classes);
@@ -90,7 +91,7 @@ fn a_written_photo_set_reads_back_as_labelled_photos() {
     }
     assert_eq!(balls, with_ball);
     // A second set into the same folder is refused rather than mixed in.
-    assert!(write_photo_set(&spec, dir.path(), &mut |_| {}).is_err());
+    assert!(write_photo_set(&spec, dir.path(), &Progress::hidden(9)).is_err());
     let manifest = std::fs::read_to_string(dir.path().join("manifest.json")).unwrap();
     assert!(manifest.contains("\"profile\": \"train\""), "{manifest}");
 }

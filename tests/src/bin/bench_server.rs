@@ -521,23 +521,33 @@ async fn memory(robots: usize, seconds: f64) -> Result<Memory> {
 }
 
 async fn run(args: Args) -> Result<()> {
-    eprintln!(
-        "[1/5] raw Zenoh loopback throughput ({} messages)",
+    // The bar shows the stage running; each `inc` counts the one before as done.
+    let stages = harness::progress::Progress::new(5, "benchmark stages");
+    stages.message(format!(
+        "raw Zenoh loopback throughput ({} messages)",
         args.messages
-    );
+    ));
     let raw = raw_zenoh(args.messages).await?;
-    eprintln!("[2/5] server throughput ({} observations)", args.messages);
+    stages.inc(format!(
+        "server throughput ({} observations)",
+        args.messages
+    ));
     let server = server_throughput(args.messages).await?;
-    eprintln!(
-        "[3/5] latency at 2000 observations/s for {} s",
+    stages.inc(format!(
+        "latency at 2000 observations/s for {} s",
         args.latency_s
-    );
+    ));
     let raw_latency = raw_echo_latency(2000.0, args.latency_s).await?;
     let lat = latency(2000.0, args.latency_s).await?;
-    eprintln!("[4/5] offline replay of a {} s match", args.replay_match_s);
+    stages.inc(format!(
+        "offline replay of a {} s match",
+        args.replay_match_s
+    ));
     let replay = replay_speed(args.replay_match_s)?;
-    eprintln!("[5/5] memory with 20 robots for {} s", args.memory_s);
+    stages.inc(format!("memory with 20 robots for {} s", args.memory_s));
     let mem = memory(20, args.memory_s).await?;
+    stages.inc("done");
+    stages.finish();
     let report = Report {
         raw,
         server,

@@ -271,11 +271,10 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
     let detector = robot_agent::detect::DetectorConfig::default();
     let classifier = robot_agent::builtin::classifier(&detector)?;
     let min_probability = robot_agent::pipeline::ValidationConfig::default().min_probability;
-    let started = std::time::Instant::now();
+    let progress = harness::progress::Progress::new(0, "photos scored");
     let results =
-        photo_eval::evaluate_photos(&cfg, &detector, &classifier, min_probability, &mut |line| {
-            eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64())
-        })?;
+        photo_eval::evaluate_photos(&cfg, &detector, &classifier, min_probability, &progress)?;
+    progress.finish();
     let text = photo_eval::markdown(&results);
     println!("{text}");
     if let Some(path) = &args.json {

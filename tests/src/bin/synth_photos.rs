@@ -5,8 +5,8 @@
 
 use clap::Parser;
 use harness::photo_set::{PhotoSetSpec, write_photo_set};
+use harness::progress::Progress;
 use std::path::PathBuf;
-use std::time::Instant;
 
 #[derive(Debug, Parser)]
 #[command(about = "Write randomised labelled ball photos (images/ and YOLO labels/)")]
@@ -65,10 +65,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         rendered: args.rendered,
         kinds: args.kinds,
     };
-    let started = Instant::now();
-    let with_ball = write_photo_set(&spec, &args.out, &mut |line| {
-        eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64());
-    })?;
+    let progress = Progress::new(args.count, "photos written");
+    let with_ball = write_photo_set(&spec, &args.out, &progress)?;
+    progress.finish();
     eprintln!(
         "wrote {} photos ({with_ball} with a ball) to {}",
         args.count,
