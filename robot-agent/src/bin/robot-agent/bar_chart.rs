@@ -2,7 +2,7 @@
 //! with plotters. The workspace's chart module lives in the evaluation crate, which depends
 //! on this one, so the agent draws its one chart itself. Groups are the size bands of
 //! `label_eval::SIZE_BANDS_PX` in order, the bars of a group the series in order; text is
-//! drawn with the DejaVu Sans font embedded from `assets/fonts`, so no system font is needed.
+//! drawn with the DejaVu Sans font embedded from `robot-agent/assets/fonts`, so no system font is needed.
 
 use std::sync::OnceLock;
 
@@ -17,7 +17,7 @@ use robot_agent::label_eval::band_name;
 const W: u32 = 640;
 const H: u32 = 400;
 const FONT: &str = "sans-serif";
-static FONT_TTF: &[u8] = include_bytes!("../../../../assets/fonts/DejaVuSans.ttf");
+static FONT_TTF: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 const GRID: RGBColor = RGBColor(220, 220, 220);
 const INK: RGBColor = RGBColor(40, 40, 40);
 /// Bar colours of the series, in order.
