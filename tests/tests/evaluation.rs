@@ -2,9 +2,9 @@
 //! are measured by `evaluate` over 20 seeds and reported in docs/accuracy.md): a regression
 //! in the fusion core fails here.
 
-use sim::score::Summary;
 use harness::eval::{evaluate, report};
 use harness::report::Row;
+use sim::score::Summary;
 
 const SEEDS: u64 = 3;
 

@@ -3,11 +3,11 @@
 //! the floors are loose (the core clearly meets them), so a regression fails here.
 
 use fusion_server::core::Bounds;
+use harness::track_fixtures::Roll;
 use proto::Pitch;
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
-use harness::track_fixtures::Roll;
 
 fn evaluate(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_evaluate"))

@@ -15,13 +15,13 @@ use clap::Parser;
 use fusion_server::live::{Clock, SystemClock};
 use fusion_server::net::{NetConfig, free_loopback_port};
 use fusion_server::serve::{self, ServeConfig};
+use harness::bench::*;
 use proto::{Camera, Observation, Pose2, Stamp};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-use harness::bench::*;
 
 #[derive(Debug, Parser)]
 struct Args {

@@ -10,10 +10,10 @@ mod tracks_cmd;
 
 use anyhow::Context;
 use clap::Parser;
-use std::path::PathBuf;
 use harness::vision::{VisionConfig, evaluate_vision, shipped_lens_error};
 use harness::vision_report::{self, CalibrationCheck};
 use harness::{eval, plots, report};
+use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
 #[command(about = "Evaluate the fusion core against the seed's method and an oracle")]
@@ -268,7 +268,7 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         backgrounds: "tests/data/backgrounds/heldout".into(),
         real_balls: "tests/data/real-balls".into(),
     };
-    let detector = robot_agent::detect::DetectorConfig::default();
+    let detector = robot_agent::detection::detect::DetectorConfig::default();
     let classifier = robot_agent::builtin::classifier(&detector)?;
     let min_probability = robot_agent::pipeline::ValidationConfig::default().min_probability;
     let started = std::time::Instant::now();
@@ -282,8 +282,7 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         write_json(path, &results)?;
     }
     if let Some(path) = &args.doc {
-        let mut cmd =
-            String::from("cargo run --release -p harness --bin evaluate -- --photos");
+        let mut cmd = String::from("cargo run --release -p harness --bin evaluate -- --photos");
         if args.photo_count != 400 {
             cmd.push_str(&format!(" --photo-count {}", args.photo_count));
         }

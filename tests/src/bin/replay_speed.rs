@@ -3,8 +3,8 @@
 
 use clap::Parser;
 use fusion_server::core::Fusion;
-use std::time::Instant;
 use harness::methods::fusion_config;
+use std::time::Instant;
 
 #[derive(Debug, Parser)]
 struct Args {

@@ -4,9 +4,9 @@
 
 use anyhow::Context;
 use clap::Parser;
-use std::path::PathBuf;
 use harness::track_fixtures::{sim_source, sim_track};
 use harness::tracks::to_csv;
+use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
 #[command(about = "Write a simulated run's ball ground truth as a track CSV")]

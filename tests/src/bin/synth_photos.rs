@@ -4,9 +4,9 @@
 //! `sim::photo_synth`).
 
 use clap::Parser;
+use harness::photo_set::{PhotoSetSpec, write_photo_set};
 use std::path::PathBuf;
 use std::time::Instant;
-use harness::photo_set::{PhotoSetSpec, write_photo_set};
 
 #[derive(Debug, Parser)]
 #[command(about = "Write randomised labelled ball photos (images/ and YOLO labels/)")]
@@ -45,7 +45,7 @@ fn image_files(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
         if p.is_dir() {
-            out.extend(robot_agent::image_io::image_files(p)?);
+            out.extend(robot_agent::io::image_io::image_files(p)?);
         } else {
             out.push(p.clone());
         }

@@ -3,8 +3,8 @@
 
 use clap::Parser;
 use fusion_server::core::Fusion;
-use sim::score::TICK_S;
 use harness::methods::fusion_config;
+use sim::score::TICK_S;
 
 #[derive(Debug, Parser)]
 struct Args {

@@ -2,13 +2,13 @@
 //! method scored against the track itself.
 
 use anyhow::Context;
-use proto::{Pitch, WallSide};
-use std::path::{Path, PathBuf};
 use harness::plot::write_png;
 use harness::track_eval::{TrackSetup, evaluate_tracks};
 use harness::track_obs::ObserverSetup;
 use harness::track_report::{self, FileSummary, SECTION_BEGIN, SECTION_END};
 use harness::tracks::{self, ReadOptions, TimeUnit, Track};
+use proto::{Pitch, WallSide};
+use std::path::{Path, PathBuf};
 
 /// Where a track's coordinates start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
