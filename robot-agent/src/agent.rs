@@ -2,11 +2,13 @@
 //! sequence numbers, the team's latest ball state and counters. The binary feeds it frames
 //! and ball states and publishes what it returns.
 
-use crate::camera::CameraModel;
-use crate::detect::{CandidateClassifier, DetectError, Detector, DetectorConfig, StageClock};
+use crate::calibration::camera::CameraModel;
+use crate::detection::detect::{
+    CandidateClassifier, DetectError, Detector, DetectorConfig, StageClock,
+};
 use crate::image::RgbImage;
-use crate::kinematics::camera_pose;
 use crate::pipeline::{FrameContext, FrameResult, SharedBall, ValidationConfig, process_frame};
+use crate::projection::kinematics::camera_pose;
 use crate::projection::{ProjectionNoise, footprint};
 use proto::{
     BallState, BallStatus, Camera, CameraFootprint, HeadJoints, Observation, Pitch, PixelBall,
@@ -258,7 +260,7 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
-    use crate::detect::{HoughOnly, NoClock};
+    use crate::detection::detect::{HoughOnly, NoClock};
     use crate::test_fixtures::{head as head_yawed, miro_lens as lens};
     use proto::Validate;
 

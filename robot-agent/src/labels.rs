@@ -1,11 +1,15 @@
 //! Labelled ball boxes of an image, as the two common annotation formats give them:
-//! [`crate::voc`] (Pascal VOC XML) and [`crate::yolo`] (YOLO text). Both readers are pure
+//! [`voc`] (Pascal VOC XML) and [`yolo`] (YOLO text). Both readers are pure
 //! (text in, boxes out) and share the box checks here, so the same malformed box gives the
 //! same error or warning whichever format it came in.
 //!
 //! A box that reaches a little past the image (labelling tools round outwards) is clipped
 //! to the image and counted as a warning; a box wholly outside it, an empty box or one with
 //! its corners swapped is an error.
+
+pub mod eval;
+pub mod voc;
+pub mod yolo;
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;

@@ -16,9 +16,9 @@
 //! classifier probability (calibrated by the classifier) is the sighting's confidence.
 //! Rejections are kept with their reasons so the agent can count them.
 
-use crate::camera::CameraModel;
-use crate::detect::{Candidate, CandidateClassifier, DetectError, Detector, StageClock};
-use crate::hough::Circle;
+use crate::calibration::camera::CameraModel;
+use crate::detection::detect::{Candidate, CandidateClassifier, DetectError, Detector, StageClock};
+use crate::detection::hough::Circle;
 use crate::image::RgbImage;
 use crate::projection::{
     FloorPoint, ImageBall, ProjectionError, ProjectionNoise, angular_radius_from_image_radius,
@@ -196,7 +196,7 @@ fn validate(
     if let Some(alpha) = angular_radius_rad {
         // The two range cues must roughly agree before they are combined.
         let seen_m = ball_radius_m / alpha.sin();
-        let cam = crate::kinematics::camera_pose(&ctx.pose, &ctx.head, ctx.camera);
+        let cam = crate::projection::kinematics::camera_pose(&ctx.pose, &ctx.head, ctx.camera);
         let drop_m = cam.centre_m.z - ball_radius_m;
         let ground_m = floor.ground_range_m.hypot(drop_m);
         let ratio = seen_m / ground_m;

@@ -3,8 +3,8 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::detect::{DetectorConfig, HoughOnly, NoClock};
-use crate::kinematics::camera_pose;
+use crate::detection::detect::{DetectorConfig, HoughOnly, NoClock};
+use crate::projection::kinematics::camera_pose;
 use crate::test_fixtures::{head as head_yawed, miro_lens as lens};
 use nalgebra::Vector3;
 

@@ -1,7 +1,7 @@
 //! From a ball's pixel to a point on the floor with an honest covariance.
 //!
 //! The pixel is unprojected through the calibrated camera model to a ray, the ray is carried
-//! into the field frame by the robot's kinematics ([`crate::kinematics`]) and intersected with
+//! into the field frame by the robot's kinematics ([`kinematics`]) and intersected with
 //! the plane of ball centres, z = ball radius (the seed's ground-plane method, without its
 //! fitted corrections: those only made up for a wrong camera model).
 //!
@@ -20,8 +20,10 @@
 //! of the range, an azimuth or heading error moves it across by an amount growing with the
 //! range: the covariance comes out elongated along the ray and growing with distance.
 
-use crate::camera::CameraModel;
-use crate::kinematics::{CameraPose, camera_pose};
+pub mod kinematics;
+
+use crate::calibration::camera::CameraModel;
+use crate::projection::kinematics::{CameraPose, camera_pose};
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 use proto::{Camera, HeadJoints, Pose2};
 use serde::{Deserialize, Serialize};

@@ -26,8 +26,8 @@ pub fn disc_mask() -> Mask {
 
 /// A 640×360 Kannala–Brandt fisheye with about 120° of horizontal field of view, close to
 /// a MiRo camera's calibration.
-pub fn miro_lens() -> crate::camera::CameraModel {
-    use crate::camera::{CameraModel, Distortion, Intrinsics};
+pub fn miro_lens() -> crate::calibration::camera::CameraModel {
+    use crate::calibration::camera::{CameraModel, Distortion, Intrinsics};
     CameraModel {
         intrinsics: Intrinsics {
             fx_px: 344.0,
@@ -56,8 +56,8 @@ pub fn head(yaw_rad: f64) -> proto::HeadJoints {
 }
 
 /// An orange ball's colour window.
-pub fn orange() -> crate::hsv::HsvThresholds {
-    crate::hsv::HsvThresholds {
+pub fn orange() -> crate::detection::hsv::HsvThresholds {
+    crate::detection::hsv::HsvThresholds {
         hue_lo_deg: 15.0,
         hue_hi_deg: 45.0,
         sat_min: 0.5,

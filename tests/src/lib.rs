@@ -1,7 +1,10 @@
 //! System tests and the evaluation harness: the simulated world against the fusion core,
 //! the seed's method and an oracle, scored against ground truth; and recorded ball tracks
-//! (`tracks`, `track_*`), observed by simulated robots and scored against themselves.
+//! (`tracks`, `track_*`), observed by simulated robots and scored against themselves; and
+//! the robot agent driven by the simulator (`sim_source`, `agent_recall`, `sim_patches`,
+//! behind the `sim_agent`, `bench_agent`, `sim_calibrate` and `train_sim` binaries).
 
+pub mod agent_recall;
 pub mod baseline;
 pub mod bench;
 pub mod eval;
@@ -16,6 +19,8 @@ pub mod scoring;
 pub mod sim_args;
 pub mod sim_log;
 pub mod sim_robots;
+pub mod sim_patches;
+pub mod sim_source;
 pub mod track_eval;
 pub mod track_events;
 pub mod track_fixtures;

@@ -9,7 +9,7 @@
 use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
 use robot_agent::labels::BallBox;
-use robot_agent::yolo::yolo_line;
+use robot_agent::labels::yolo::yolo_line;
 use serde::Serialize;
 use sim::camera_world::{CameraWorld, CameraWorldConfig};
 use sim::lens::LensModel;
@@ -107,7 +107,7 @@ pub fn encode(photo: &SynthPhoto) -> Result<(Vec<u8>, &'static str)> {
         }
         None => {
             let image = robot_agent::image::RgbImage::new(f.width, f.height, f.rgb.clone())?;
-            Ok((robot_agent::image_io::encode_png(&image)?, "png"))
+            Ok((robot_agent::io::image_io::encode_png(&image)?, "png"))
         }
     }
 }
@@ -124,7 +124,7 @@ pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> 
     }
     let mut pictures = Vec::new();
     for p in &spec.backgrounds {
-        let image = robot_agent::image_io::load_rgb(p)
+        let image = robot_agent::io::image_io::load_rgb(p)
             .with_context(|| format!("reading background {}", p.display()))?;
         pictures.push(frame_of(image));
     }

@@ -11,8 +11,8 @@
 use crate::eval::{RunResult, evaluate_run};
 use proto::{Camera, Observation};
 use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
-use robot_agent::camera::CameraModel;
-use robot_agent::detect::NoClock;
+use robot_agent::calibration::camera::CameraModel;
+use robot_agent::detection::detect::NoClock;
 use robot_agent::image::RgbImage;
 use sim::camera_world::{CameraWorld, CameraWorldConfig};
 use sim::lens::LensModel;
@@ -44,7 +44,7 @@ impl Default for VisionConfig {
 }
 
 /// One camera frame judged against the renderer's truth, with the counting rules of
-/// `robot-agent run`: a ball is visible when it is in the frame, at least half of it shows,
+/// `sim_agent`: a ball is visible when it is in the frame, at least half of it shows,
 /// its image radius is at least 4 px and its centre lies on the image; an observation is a
 /// hit when its pixel lies within max(radius, 4) px of the true centre.
 #[derive(Debug, Clone, PartialEq)]

@@ -16,7 +16,7 @@ pub const SECTION_END: &str = "<!-- evaluate-vision:end -->";
 pub const PATTERNED_SECTION_BEGIN: &str = "<!-- evaluate-vision-patterned:begin -->";
 pub const PATTERNED_SECTION_END: &str = "<!-- evaluate-vision-patterned:end -->";
 
-/// Detection counted over frames, the way `robot-agent run` counts against the truth.
+/// Detection counted over frames, the way `sim_agent` counts against the truth.
 #[derive(Debug, Clone, Default, Serialize, PartialEq)]
 pub struct Detection {
     pub frames: usize,

@@ -22,7 +22,7 @@ fn held_out_and_real_photos_clear_their_floors() {
         backgrounds: data("backgrounds/heldout"),
         real_balls: data("real-balls"),
     };
-    let detector = robot_agent::detect::DetectorConfig::default();
+    let detector = robot_agent::detection::detect::DetectorConfig::default();
     let classifier = robot_agent::builtin::classifier(&detector).expect("shipped classifier");
     let results = evaluate_photos(&cfg, &detector, &classifier, 0.5, &Progress::hidden(0))
         .expect("photo evaluation");
@@ -75,18 +75,20 @@ fn a_written_photo_set_reads_back_as_labelled_photos() {
     let with_ball = write_photo_set(&spec, dir.path(), &Progress::hidden(9)).expect("photo set");
     assert!(with_ball > 0 && with_ball <= 9);
     let classes = std::fs::read_to_string(dir.path().join("labels/classes.txt")).unwrap();
-    let names = robot_agent::yolo::parse_classes_txt(&classes);
-    let ids = robot_agent::yolo::BallClassIds::from_names(
+    let names = robot_agent::labels::yolo::parse_classes_txt(&classes);
+    let ids = robot_agent::labels::yolo::BallClassIds::from_names(
         &names,
         &robot_agent::labels::BallNames::default(),
     );
     let mut balls = 0;
     for i in 0..9 {
-        let image = robot_agent::image_io::load_rgb(&dir.path().join(format!("images/{i:05}.jpg")))
-            .expect("a JPEG photo");
+        let image =
+            robot_agent::io::image_io::load_rgb(&dir.path().join(format!("images/{i:05}.jpg")))
+                .expect("a JPEG photo");
         let text = std::fs::read_to_string(dir.path().join(format!("labels/{i:05}.txt"))).unwrap();
-        let labels = robot_agent::yolo::parse_yolo(&text, "t", image.width(), image.height(), &ids)
-            .expect("YOLO labels");
+        let labels =
+            robot_agent::labels::yolo::parse_yolo(&text, "t", image.width(), image.height(), &ids)
+                .expect("YOLO labels");
         balls += labels.balls.len();
     }
     assert_eq!(balls, with_ball);

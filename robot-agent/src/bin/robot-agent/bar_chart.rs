@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{FontStyle, register_font};
 use robot_agent::image::RgbImage;
-use robot_agent::label_eval::band_name;
+use robot_agent::labels::eval::band_name;
 
 const W: u32 = 640;
 const H: u32 = 400;

@@ -4,8 +4,8 @@
 //! `--rescale-calibration` scaled to, each photo's size.
 
 use anyhow::{Context, Result, bail};
-use robot_agent::camera::CameraModel;
-use robot_agent::photo::fit_to_photo;
+use robot_agent::calibration::camera::CameraModel;
+use robot_agent::detection::photo::fit_to_photo;
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::str::FromStr;
@@ -87,7 +87,7 @@ impl PhotoCamera {
     pub fn new(args: &CameraArgs) -> Result<Self> {
         let choice = match (&args.calibration, args.camera) {
             (Some(path), _) => Choice::Calibration {
-                model: crate::run::load_models(Some(path), None)?[0],
+                model: robot_agent::runtime::models::load_models(Some(path), None)?[0],
                 name: path.display().to_string(),
             },
             (None, Some(spec)) => Choice::Pinhole(spec),

@@ -7,8 +7,8 @@
 
 use crate::camera_args::{CameraArgs, PhotoCamera};
 use anyhow::{Context, Result, bail};
-use robot_agent::detect::{CandidateClassifier, Detector, NoClock};
-use robot_agent::photo::{PhotoCandidate, detect_photo, overlay};
+use robot_agent::detection::detect::{CandidateClassifier, Detector, NoClock};
+use robot_agent::detection::photo::{PhotoCandidate, detect_photo, overlay};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 #[derive(Debug, clap::Args)]
 pub struct DetectArgs {
     #[command(flatten)]
-    pub model: crate::defaults::ClassifierArgs,
+    pub model: robot_agent::runtime::models::ClassifierArgs,
     /// Folder of photos (PNG or JPEG; other files are left alone).
     #[arg(long)]
     pub images: PathBuf,
@@ -94,17 +94,17 @@ struct Detection {
 }
 
 pub fn run(args: DetectArgs) -> Result<()> {
-    let config = crate::run::load_config(args.config.as_deref())?;
+    let config = robot_agent::runtime::models::load_config(args.config.as_deref())?;
     let detection = Detection {
         detector: Detector::new(config.detector).context("the detector settings")?,
-        classifier: crate::defaults::classifier(
+        classifier: robot_agent::runtime::models::classifier(
             &config.detector,
             args.model.classifier.as_deref(),
         )?,
         min_probability: config.validation.min_probability,
     };
     let mut camera = PhotoCamera::new(&args.camera)?;
-    let files = crate::frames_io::image_files(&args.images)?;
+    let files = robot_agent::io::image_io::image_files(&args.images)?;
     if files.is_empty() {
         bail!("{} holds no PNG or JPEG files", args.images.display());
     }
@@ -179,7 +179,7 @@ fn detect_one(
     camera: &mut PhotoCamera,
     overlays: Option<&Path>,
 ) -> Result<PhotoLine, Failure> {
-    let image = robot_agent::image_io::load_rgb(path).map_err(|e| Failure::Photo(e.into()))?;
+    let image = robot_agent::io::image_io::load_rgb(path).map_err(|e| Failure::Photo(e.into()))?;
     let (width_px, height_px) = (image.width(), image.height());
     let model = camera
         .for_photo(width_px, height_px)
@@ -244,7 +244,7 @@ fn write_overlay(
     candidates: &[PhotoCandidate],
 ) -> Result<()> {
     let path = dir.join(overlay_name(name));
-    let png = robot_agent::image_io::encode_png(&overlay(image, candidates))
+    let png = robot_agent::io::image_io::encode_png(&overlay(image, candidates))
         .with_context(|| format!("encoding {}", path.display()))?;
     std::fs::write(&path, png).with_context(|| format!("writing {}", path.display()))
 }

@@ -1,21 +1,21 @@
 //! `robot-agent evaluate`: the agent's detector on a folder of labelled photos, scored
-//! against the labelled ball boxes ([`robot_agent::label_eval`]).
+//! against the labelled ball boxes ([`robot_agent::labels::eval`]).
 //!
 //! Every photo is searched on its own, with the configured colour window (no lighting
 //! adaptation carries from one photo to the next) and without world validation, which
 //! needs a robot's pose.
 
-use crate::labelled::{LabelledArgs, LabelledFolder};
 use anyhow::{Context, Result};
-use robot_agent::detect::{Detector, NoClock};
-use robot_agent::label_eval::{LabelEval, TimingMs};
+use robot_agent::cli::labelled::{LabelledArgs, LabelledFolder};
+use robot_agent::detection::detect::{Detector, NoClock};
+use robot_agent::labels::eval::{LabelEval, TimingMs};
 use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Debug, clap::Args)]
 pub struct EvaluateArgs {
     #[command(flatten)]
-    pub model: crate::defaults::ClassifierArgs,
+    pub model: robot_agent::runtime::models::ClassifierArgs,
     #[command(flatten)]
     pub folder: LabelledArgs,
     /// Pipeline settings (TOML: `[detector]`, `[validation]` for `min_probability`).
@@ -37,11 +37,13 @@ fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
 }
 
 pub fn run(args: EvaluateArgs) -> Result<()> {
-    let config = crate::run::load_config(args.config.as_deref())?;
+    let config = robot_agent::runtime::models::load_config(args.config.as_deref())?;
     let folder = LabelledFolder::open(&args.folder)?;
     let detector = Detector::new(config.detector).context("the detector's settings")?;
-    let classifier =
-        crate::defaults::classifier(&config.detector, args.model.classifier.as_deref())?;
+    let classifier = robot_agent::runtime::models::classifier(
+        &config.detector,
+        args.model.classifier.as_deref(),
+    )?;
     let mut eval = LabelEval::new(config.validation.min_probability);
     let (mut unreadable, mut warnings, mut unlabelled) = (0usize, 0usize, 0usize);
     let mut ms = Vec::new();
@@ -49,7 +51,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
     for (k, item) in folder.items.iter().enumerate() {
         let name = item.name();
         let outcome = (|| -> Result<_> {
-            let image = robot_agent::image_io::load_rgb(&item.image)?;
+            let image = robot_agent::io::image_io::load_rgb(&item.image)?;
             let labels = folder.labels(item, &image)?;
             let model = folder.camera.model_for(&image)?;
             Ok((image, labels, model))
@@ -97,8 +99,8 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
             );
         }
     }
-    let timing = sim::score::quantile(&ms, 0.5)
-        .zip(sim::score::quantile(&ms, 0.9))
+    let timing = quantile(&ms, 0.5)
+        .zip(quantile(&ms, 0.9))
         .map(|(median, p90)| TimingMs { median, p90 });
     let report = eval.report(timing);
     println!("{report}");
@@ -119,7 +121,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
             .map(|b| vec![b.recall_published, b.recall_best])
             .collect();
         let chart = crate::bar_chart::grouped_bars(&groups)?;
-        write_file(path, &robot_agent::image_io::encode_png(&chart)?)?;
+        write_file(path, &robot_agent::io::image_io::encode_png(&chart)?)?;
         println!(
             "wrote {} (recall by ball width {}; blue: published, orange: best candidate)",
             path.display(),
@@ -132,4 +134,32 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The `q` quantile of the finite values, linearly interpolated between order statistics;
+/// `None` without finite values. The same definition as the simulator's scoring
+/// (`sim::score::quantile`), until the workspace shares one.
+fn quantile(v: &[f64], q: f64) -> Option<f64> {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if s.is_empty() {
+        return None;
+    }
+    s.sort_by(f64::total_cmp);
+    let pos = q.clamp(0.0, 1.0) * (s.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    Some(s[lo] + (s[hi] - s[lo]) * (pos - lo as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::quantile;
+
+    #[test]
+    fn quantiles_interpolate_between_finite_values() {
+        assert_eq!(quantile(&[], 0.5), None);
+        assert_eq!(quantile(&[f64::NAN], 0.5), None);
+        assert_eq!(quantile(&[3.0, 1.0, f64::INFINITY, 2.0], 0.5), Some(2.0));
+        assert_eq!(quantile(&[1.0, 2.0], 0.9), Some(1.9));
+        assert_eq!(quantile(&[1.0, 2.0], 2.0), Some(2.0));
+    }
 }

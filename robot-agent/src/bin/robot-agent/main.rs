@@ -1,25 +1,16 @@
 //! `robot-agent`: a MiRo's ball perception. `run` finds the ball in camera frames and
 //! publishes observations and status over Zenoh; `calibrate` fits a camera model to
 //! chessboard images; `train` fits the ball classifier; `detect` finds the ball in a folder
-//! of photos; `evaluate` scores the detector on labelled photos.
+//! of photos; `evaluate` scores the detector on labelled photos. The commands that drive
+//! the simulator (the agent on rendered cameras, the pipeline benchmark, the simulated
+//! calibration and classifier) are the harness's binaries.
 
 mod bar_chart;
-mod bench_cmd;
 mod calibrate_cmd;
 mod camera_args;
-mod defaults;
 mod detect_cmd;
 mod evaluate_cmd;
-mod frames_io;
-mod labelled;
-mod labelled_patches;
-mod live_ros;
-mod ros_frames;
-mod run;
-mod sim_patches;
-mod sim_source;
-mod sources;
-mod timer;
+mod run_cmd;
 mod train_cmd;
 
 use anyhow::Result;
@@ -35,13 +26,11 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Finds the ball in camera frames and publishes it over Zenoh.
-    Run(Box<run::RunArgs>),
+    Run(Box<run_cmd::RunCmdArgs>),
     /// Fits a camera model to chessboard images.
     Calibrate(calibrate_cmd::CalibrateArgs),
     /// Trains the ball classifier.
     Train(train_cmd::TrainArgs),
-    /// Times the perception pipeline per frame, by stage, on rendered frames.
-    Bench(bench_cmd::BenchArgs),
     /// Finds the ball in a folder of photos (no index, no pose): every candidate, as JSON lines.
     Detect(detect_cmd::DetectArgs),
     /// Scores the detector on photos with labelled ball boxes (Pascal VOC or YOLO).
@@ -61,11 +50,10 @@ fn main() -> Result<()> {
             let rt = tokio::runtime::Builder::new_multi_thread()
                 .enable_all()
                 .build()?;
-            rt.block_on(run::run(*args))
+            rt.block_on(run_cmd::run(*args))
         }
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Train(args) => train_cmd::run(args),
-        Command::Bench(args) => bench_cmd::run(args),
         Command::Detect(args) => detect_cmd::run(args),
         Command::Evaluate(args) => evaluate_cmd::run(*args),
     }

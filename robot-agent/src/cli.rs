@@ -1,0 +1,14 @@
+//! Flag groups and command steps shared by the `robot-agent` binary and the harness's
+//! simulator-driven commands (`sim_calibrate`, `train_sim`), so both write the same files
+//! from the same inputs.
+//!
+//! - [`calibrate`]: the board and lens flags, the fit from chessboard images, its report.
+//! - [`train`]: patches from folders and labelled photos, the classifier's fit and file.
+//! - [`labelled`]: a folder of photos with labelled ball boxes and the camera to read
+//!   them with.
+//! - [`labelled_patches`]: training patches cut from labelled photos.
+
+pub mod calibrate;
+pub mod labelled;
+pub mod labelled_patches;
+pub mod train;

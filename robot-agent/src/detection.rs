@@ -1,0 +1,46 @@
+//! Detection, one stage per module, and the ball classifier's training.
+//!
+//! - [`hsv`]: HSV colour thresholds, the frame's colour mask (exact, or through a lookup
+//!   table), and lighting adaptation of the thresholds.
+//! - [`seeded_mask`]: the colour mask grown from the strict window's pixels through a
+//!   wider window, decided per image.
+//! - [`morphology`]: mask cleanup by erosion, dilation, opening and closing.
+//! - [`components`]: connected components of a mask with area, bounding box and centroid,
+//!   optionally joining fragments a few pixels apart.
+//! - [`hough`]: a circular Hough transform finding ball candidates in a binary mask.
+//! - [`blob_circle`]: circles straight from small or roundish blobs, and masks shrunk for
+//!   blobs too big for the Hough transform.
+//! - [`patch`]: the 32×32 candidate patch around a circle, with mirroring and rotation.
+//! - [`hog`]: the histogram-of-oriented-gradients descriptor of a patch (288 features).
+//! - [`svm`]: the RBF-kernel SVM candidate filter: SMO training, Platt-calibrated
+//!   probability, model serialisation.
+//! - [`train`]: training the filter from labelled patches: augmentation, split, grid
+//!   search by cross-validation, held-out metrics; the detectors that mine training
+//!   candidates.
+//! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
+//! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
+//! - [`two_colour`]: the two-colour mask of a patterned ball (the ball's colour with white
+//!   patches) as one disc.
+//! - [`detect`]: one frame to ball candidates through the stages above.
+//! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
+//!   what became of it, and the photo with the candidates drawn.
+
+pub mod blob_circle;
+pub mod classifier;
+pub mod components;
+pub mod detect;
+mod detect_config;
+pub mod hog;
+pub mod hough;
+pub mod hsv;
+pub mod kmeans;
+pub mod morphology;
+pub mod patch;
+#[cfg(test)]
+mod patch_fixtures;
+pub mod photo;
+pub mod seeded_mask;
+pub mod svm;
+mod svm_model;
+pub mod train;
+pub mod two_colour;

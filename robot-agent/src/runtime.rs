@@ -1,0 +1,38 @@
+//! The agent's shell: frame sources, the perceive loop and Zenoh. Frames come from a
+//! [`source::FrameSource`] (an image folder, an MCAP recording, a running robot's ROS topics
+//! over Zenoh, or any source another crate implements), go through the pipeline on their
+//! own thread, and the observations and status go out over Zenoh.
+//!
+//! [`run()`] is the whole agent as the `robot-agent run` command runs it; a caller with its
+//! own frames passes [`Source::Given`], and a [`FrameHook`] sees every processed frame with
+//! the pipeline's outcome (to score it against what the caller knows of the frame).
+//!
+//! - [`source`]: the frame-source trait and the image-folder and recording sources.
+//! - [`frames_io`]: the stored frame, image folders with their index, MCAP recordings.
+//! - [`ros_frames`]: a MiRo's ROS recordings as frames and robot states.
+//! - [`live_ros`]: a running MiRo's ROS topics over Zenoh as a live source.
+//! - [`models`]: calibrations, pipeline settings and the ball classifier from files.
+//! - [`timer`]: per-stage timings for the status.
+
+pub mod frames_io;
+pub mod live_ros;
+pub mod models;
+mod perceive;
+pub mod ros_frames;
+mod run;
+pub mod source;
+pub mod timer;
+
+pub use perceive::{FrameHook, FrameReport, Summary, print_summary};
+pub use run::{RunArgs, Source, run};
+
+use proto::Stamp;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// The wall clock as a stamp (the shell's only clock read).
+pub fn wall_now() -> Stamp {
+    let d = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    Stamp(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+}

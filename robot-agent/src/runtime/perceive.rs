@@ -1,0 +1,281 @@
+//! The perceive loop: frames from a source through the perception pipeline, observations
+//! and status handed to the network side, with pacing, restamping, frame recording and a
+//! summary. It runs on its own thread (it is CPU-bound and must not stall the network).
+
+use crate::agent::{Agent, FrameInput, FrameOutcome};
+use crate::image::RgbImage;
+use crate::runtime::RunArgs;
+use crate::runtime::frames_io::{FolderWriter, McapFrameWriter, StoredFrame};
+use crate::runtime::source::FrameSource;
+use crate::runtime::timer::StageTimer;
+use crate::runtime::wall_now;
+use anyhow::{Context, Result};
+use proto::{BallState, Observation, RobotStatus, StageTiming, Stamp};
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tokio::sync::mpsc;
+
+/// What the pipeline thread hands to the network side.
+#[derive(Debug)]
+pub(crate) enum Outbound {
+    Observation(Observation),
+    Status(RobotStatus),
+}
+
+/// Frames whose pipeline time the summary keeps (about nine hours of both cameras at
+/// 15 Hz), so a live agent's memory stays bounded.
+const MAX_TIMED_FRAMES: usize = 1_000_000;
+
+/// A live frame more than this late is skipped, seconds.
+const MAX_LAG_S: f64 = 0.2;
+
+/// One processed frame, as the loop hands it to a [`FrameHook`].
+#[derive(Debug)]
+pub struct FrameReport<'a> {
+    /// The frame's stamp as its source gave it (before `--restamp`), to pair the frame
+    /// with what the caller knows about it.
+    pub source_stamp: Stamp,
+    /// The frame as processed (restamped with `--restamp`).
+    pub frame: &'a StoredFrame,
+    /// What the pipeline made of it.
+    pub outcome: &'a FrameOutcome,
+}
+
+/// Called on the pipeline thread after every processed frame (frames skipped for lag or
+/// past `--duration` are not reported).
+pub type FrameHook = Box<dyn FnMut(&FrameReport<'_>) + Send>;
+
+/// Counts reported at the end.
+#[derive(Debug, Default)]
+pub struct Summary {
+    pub frames: u64,
+    /// Live frames skipped because the pipeline had fallen behind.
+    pub skipped: u64,
+    pub observations: u64,
+    /// The pipeline's time per processed frame, milliseconds (at most
+    /// `MAX_TIMED_FRAMES` of them).
+    pub total_ms: Vec<f64>,
+}
+
+enum FrameSink {
+    Mcap(Box<McapFrameWriter>),
+    Folder(FolderWriter),
+}
+
+impl FrameSink {
+    fn create(path: &Path) -> Result<Self> {
+        if path.extension().is_some_and(|e| e == "mcap") {
+            Ok(FrameSink::Mcap(Box::new(McapFrameWriter::create(path)?)))
+        } else {
+            Ok(FrameSink::Folder(FolderWriter::create(path)?))
+        }
+    }
+
+    fn write(&mut self, frame: &StoredFrame) -> Result<()> {
+        match self {
+            FrameSink::Mcap(w) => w.write(frame),
+            FrameSink::Folder(w) => w.write(frame),
+        }
+    }
+
+    fn finish(self) -> Result<()> {
+        match self {
+            FrameSink::Mcap(w) => w.finish(),
+            FrameSink::Folder(w) => w.finish(),
+        }
+    }
+}
+
+/// Runs the pipeline over the source until it ends, `duration` passes or `stop` is set.
+pub(crate) fn perceive(
+    mut agent: Agent,
+    mut source: Box<dyn FrameSource>,
+    args: &RunArgs,
+    shared: Arc<Mutex<Option<BallState>>>,
+    out: Option<mpsc::Sender<Outbound>>,
+    stop: Arc<AtomicBool>,
+    mut hook: Option<FrameHook>,
+) -> Result<Summary> {
+    let pace = !args.fast && (source.live() || args.restamp);
+    let mut sink = args
+        .record_frames
+        .as_deref()
+        .map(FrameSink::create)
+        .transpose()?;
+    let mut timer = StageTimer::new();
+    let mut summary = Summary::default();
+    let started = Instant::now();
+    let mut first: Option<Stamp> = None;
+    let mut restamp_offset_ns: i128 = 0;
+    let mut next_status: Option<Stamp> = None;
+    let mut last_progress = Instant::now();
+    let status_dt = 1.0 / args.status_hz.max(0.1);
+    while !stop.load(Ordering::Relaxed) {
+        #[cfg(unix)]
+        if args
+            .parent_pid
+            .is_some_and(|p| std::os::unix::process::parent_id() != p)
+        {
+            tracing::warn!(
+                "{}: the launching process is gone; stopping",
+                agent.robot_id()
+            );
+            break;
+        }
+        let Some(mut frame) = source.next_frame()? else {
+            break;
+        };
+        let source_stamp = frame.stamp;
+        let first_stamp = *first.get_or_insert(frame.stamp);
+        if args
+            .duration
+            .is_some_and(|d| frame.stamp.secs_since(first_stamp) > d)
+        {
+            break;
+        }
+        if args.restamp {
+            if summary.frames == 0 {
+                restamp_offset_ns = i128::from(wall_now().0) - i128::from(frame.stamp.0);
+            }
+            frame.stamp =
+                Stamp(u64::try_from(i128::from(frame.stamp.0) + restamp_offset_ns).unwrap_or(0));
+        }
+        if pace {
+            let ahead_s = frame.stamp.secs_since(wall_now());
+            if ahead_s > 0.0 {
+                std::thread::sleep(Duration::from_secs_f64(ahead_s.min(1.0)));
+            } else if ahead_s < -MAX_LAG_S {
+                // A camera hands over its newest frame: a pipeline that fell behind skips
+                // frames instead of publishing stale sightings.
+                summary.skipped += 1;
+                continue;
+            }
+        }
+        // Each new state is handed over once; the agent keeps the latest.
+        if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
+            agent.on_ball_state(state);
+        }
+        fit_calibration(
+            &mut agent,
+            frame.camera,
+            &frame.image,
+            args.rescale_calibration,
+        )?;
+        let input = FrameInput {
+            stamp: frame.stamp,
+            camera: frame.camera,
+            image: &frame.image,
+            pose: frame.state.pose,
+            pose_covariance: frame.state.pose_covariance,
+            head: frame.state.head,
+        };
+        timer.start();
+        let outcome = agent.on_frame(&input, &mut timer).context("pipeline")?;
+        summary.frames += 1;
+        if summary.total_ms.len() < MAX_TIMED_FRAMES {
+            summary.total_ms.push(timer.frame_ms());
+        }
+        if let Some(hook) = &mut hook {
+            hook(&FrameReport {
+                source_stamp,
+                frame: &frame,
+                outcome: &outcome,
+            });
+        }
+        if let Some(o) = outcome.observation {
+            summary.observations += 1;
+            if let Some(tx) = &out {
+                let _ = tx.blocking_send(Outbound::Observation(o));
+            }
+        }
+        if next_status.is_none_or(|n| frame.stamp >= n) {
+            next_status = Some(frame.stamp.offset_secs(status_dt));
+            let fps = summary.frames as f64 / started.elapsed().as_secs_f64().max(1e-3);
+            let timings = timer
+                .medians_ms()
+                .into_iter()
+                .map(|(stage, ms)| StageTiming { stage, ms })
+                .collect();
+            let s = frame.state;
+            let status = agent.status(frame.stamp, s.pose, s.pose_covariance, s.head, fps, timings);
+            if let Some(tx) = &out {
+                let _ = tx.blocking_send(Outbound::Status(status));
+            }
+        }
+        if let Some(sink) = &mut sink {
+            sink.write(&frame)?;
+        }
+        if last_progress.elapsed() >= Duration::from_secs(5) {
+            last_progress = Instant::now();
+            let total = timer.medians_ms().last().map_or(0.0, |(_, ms)| *ms);
+            tracing::info!(
+                "{}: {} frames, {} observations, pipeline median {total:.2} ms/frame, rejected {:?}",
+                agent.robot_id(),
+                summary.frames,
+                summary.observations,
+                agent.rejections()
+            );
+        }
+    }
+    if let Some(sink) = sink {
+        sink.finish()?;
+    }
+    Ok(summary)
+}
+
+/// Checks that `camera`'s calibration is for frames of `image`'s size; a calibration for
+/// another size is an error, or with `rescale` is scaled to the frames once (a warning).
+fn fit_calibration(
+    agent: &mut Agent,
+    camera: proto::Camera,
+    image: &RgbImage,
+    rescale: bool,
+) -> Result<()> {
+    let model = agent.camera_model(camera);
+    let (w, h) = (image.width(), image.height());
+    let (cw, ch) = (model.intrinsics.width_px, model.intrinsics.height_px);
+    if (cw, ch) == (w, h) {
+        return Ok(());
+    }
+    let fitted =
+        crate::detection::photo::fit_to_photo(model, w, h, rescale).with_context(|| {
+            format!(
+                "the {camera:?} camera's frames (use --rescale-calibration for a resized stream)"
+            )
+        })?;
+    tracing::warn!(
+        "the {camera:?} camera's calibration is for {cw}×{ch} px frames: scaled to the frames' {w}×{h} px"
+    );
+    agent.set_camera_model(camera, fitted);
+    Ok(())
+}
+
+/// Prints the frames processed, the observations and the pipeline's time per frame.
+pub fn print_summary(agent_id: &str, s: &Summary) {
+    let mut ms = s.total_ms.clone();
+    ms.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        ms.get(((ms.len() as f64 - 1.0) * p).round() as usize)
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
+    if ms.is_empty() {
+        println!("{agent_id}: 0 frames, 0 observations");
+    } else {
+        println!(
+            "{agent_id}: {} frames, {} observations; pipeline per frame median {:.2} ms, p99 {:.2} ms",
+            s.frames,
+            s.observations,
+            q(0.5),
+            q(0.99)
+        );
+    }
+    if s.skipped > 0 {
+        println!(
+            "{agent_id}: {} frames skipped because the pipeline fell behind",
+            s.skipped
+        );
+    }
+}
