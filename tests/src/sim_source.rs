@@ -22,22 +22,10 @@ use std::sync::{Arc, Mutex};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimArgs {
-    /// Scenario of the `sim` source.
-    #[arg(long, default_value = "match")]
-    pub scenario: String,
-    /// Seed of the `sim` source's match.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Robots in a `match`.
-    #[arg(long)]
-    pub team_size: Option<usize>,
-    /// Length of the simulated match, seconds (default: the scenario's).
-    #[arg(long)]
-    pub sim_duration: Option<f64>,
-    /// The match's t = 0, nanoseconds since the epoch (default: now). Processes that share
-    /// it see the same match.
-    #[arg(long)]
-    pub start_stamp: Option<u64>,
+    /// The match (the same flags as `demo`, `sim_robots` and `simulate`); its start
+    /// defaults to now.
+    #[command(flatten)]
+    pub game: crate::sim_args::MatchArgs,
     /// The ball has white patches.
     #[arg(long)]
     pub patterned_ball: bool,
@@ -69,8 +57,8 @@ pub type Truths = Arc<Mutex<VecDeque<(Stamp, Camera, Option<BallTruth>)>>>;
 
 impl SimSource {
     pub fn new(robot_id: &str, args: &SimArgs, now: Stamp) -> Result<Self> {
-        let start = args.start_stamp.map_or(now, Stamp);
-        let run = simulate(robot_id, args, args.seed, start)?;
+        let start = args.game.start_or(now);
+        let run = simulate(robot_id, args, args.game.seed, start)?;
         let mut cam_cfg = CameraWorldConfig {
             frame_rate_hz: args.camera_hz.clamp(0.5, 60.0),
             ..CameraWorldConfig::default()
@@ -79,7 +67,7 @@ impl SimSource {
             cam_cfg.ball_look = patterned_ball();
         }
         let rig = CameraRig::new(LensModel::miro());
-        let times = CameraWorld::new(&run, &rig, cam_cfg, args.seed)
+        let times = CameraWorld::new(&run, &rig, cam_cfg, args.game.seed)
             .frame_times()
             .collect();
         Ok(SimSource {
@@ -88,7 +76,7 @@ impl SimSource {
             run,
             rig,
             cfg: cam_cfg,
-            seed: args.seed,
+            seed: args.game.seed,
             times,
             frame_index: 0,
             pending: VecDeque::new(),
@@ -117,16 +105,16 @@ impl SimSource {
 fn simulate(robot_id: &str, args: &SimArgs, seed: u64, start: Stamp) -> Result<SimRun> {
     let cfg = SimConfig {
         start,
-        duration_s: args.sim_duration,
-        team_size: args.team_size,
+        duration_s: args.game.duration_s,
+        team_size: args.game.team_size,
         ..SimConfig::default()
     };
-    let run = sim::run_scenario(&args.scenario, seed, &cfg)
-        .with_context(|| format!("simulating {}", args.scenario))?;
+    let run = sim::run_scenario(&args.game.scenario, seed, &cfg)
+        .with_context(|| format!("simulating {}", args.game.scenario))?;
     anyhow::ensure!(
         run.robot(robot_id).is_some(),
         "scenario {} has no robot {robot_id:?} (it has {})",
-        args.scenario,
+        args.game.scenario,
         run.robots
             .iter()
             .map(|r| r.id.as_str())

@@ -113,11 +113,13 @@ fn found_at(f: &StoredFrame) -> Option<[f64; 2]> {
 fn the_pipeline_finds_the_ball_in_a_recorded_rendered_frame() {
     let start = Stamp(ns(T0_S, 0));
     let args = SimArgs {
-        scenario: "match".into(),
-        seed: 1,
-        team_size: None,
-        sim_duration: Some(20.0),
-        start_stamp: Some(start.0),
+        game: harness::sim_args::MatchArgs {
+            scenario: "match".into(),
+            seed: 1,
+            team_size: None,
+            duration_s: Some(20.0),
+            start_ns: Some(start.0),
+        },
         patterned_ball: false,
         camera_hz: 15.0,
         repeat: false,

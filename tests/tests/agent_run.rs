@@ -129,7 +129,7 @@ async fn live_agent_publishes_over_zenoh() {
             "seed-1-across",
             "--seed",
             "2",
-            "--sim-duration",
+            "--duration-s",
             "4",
         ])
         .env("RUST_LOG", "warn,zenoh=error")

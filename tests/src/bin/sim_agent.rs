@@ -12,8 +12,8 @@
 //! - the loop: `--fast`, `--restamp`, `--offline`, `--duration S`, `--record-frames
 //!   FILE.mcap|DIR`, `--status-hz HZ` (default 2), `--parent-pid PID` (stop when the
 //!   launcher is gone);
-//! - the match: `--scenario NAME` (default `match`), `--seed N` (default 0),
-//!   `--team-size N`, `--sim-duration S`, `--start-stamp NS` (the match's t = 0, default
+//! - the match: `--scenario NAME` (default `match`), `--seed N` (default 1),
+//!   `--team-size N`, `--duration-s S`, `--start-ns NS` (the match's t = 0, default
 //!   now), `--patterned-ball`, `--camera-hz HZ` (default 15), `--repeat` (the next seed's
 //!   match after each one);
 //! - accepted and unused, as `robot-agent run` takes them: `--ros-key-prefix` and the ROS
