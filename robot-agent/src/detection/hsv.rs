@@ -331,11 +331,10 @@ pub const ADAPT_MARGIN: f64 = 0.05;
 /// Largest hue-window shift of one [`adapt`] call, degrees.
 pub const ADAPT_MAX_HUE_STEP_DEG: f64 = 2.0;
 
-/// Nearest-rank percentile `p` (in percent) of sorted samples.
+/// Nearest-rank percentile `p` (in percent) of sorted samples (a bound that is one of
+/// them); at least one sample.
 fn percentile(sorted: &[f64], p: f64) -> f64 {
-    let n = sorted.len();
-    let rank = ((p / 100.0) * n as f64).ceil() as usize;
-    sorted[rank.clamp(1, n) - 1]
+    proto::stats::nearest_rank(sorted, p).unwrap_or(f64::NAN)
 }
 
 /// Wraps an angle in degrees to [0, 360).

@@ -61,12 +61,8 @@ impl StageTimer {
 }
 
 fn median(values: &VecDeque<f64>) -> Option<f64> {
-    if values.is_empty() {
-        return None;
-    }
-    let mut v: Vec<f64> = values.iter().copied().collect();
-    v.sort_by(f64::total_cmp);
-    Some(v[v.len() / 2])
+    let v: Vec<f64> = values.iter().copied().collect();
+    proto::stats::median(&v)
 }
 
 impl StageClock for StageTimer {

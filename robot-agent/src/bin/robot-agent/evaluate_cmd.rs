@@ -99,8 +99,8 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
             );
         }
     }
-    let timing = quantile(&ms, 0.5)
-        .zip(quantile(&ms, 0.9))
+    let timing = proto::stats::quantile(&ms, 0.5)
+        .zip(proto::stats::quantile(&ms, 0.9))
         .map(|(median, p90)| TimingMs { median, p90 });
     let report = eval.report(timing);
     println!("{report}");
@@ -134,32 +134,4 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// The `q` quantile of the finite values, linearly interpolated between order statistics;
-/// `None` without finite values. The same definition as the simulator's scoring
-/// (`sim::score::quantile`), until the workspace shares one.
-fn quantile(v: &[f64], q: f64) -> Option<f64> {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if s.is_empty() {
-        return None;
-    }
-    s.sort_by(f64::total_cmp);
-    let pos = q.clamp(0.0, 1.0) * (s.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    Some(s[lo] + (s[hi] - s[lo]) * (pos - lo as f64))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::quantile;
-
-    #[test]
-    fn quantiles_interpolate_between_finite_values() {
-        assert_eq!(quantile(&[], 0.5), None);
-        assert_eq!(quantile(&[f64::NAN], 0.5), None);
-        assert_eq!(quantile(&[3.0, 1.0, f64::INFINITY, 2.0], 0.5), Some(2.0));
-        assert_eq!(quantile(&[1.0, 2.0], 0.9), Some(1.9));
-        assert_eq!(quantile(&[1.0, 2.0], 2.0), Some(2.0));
-    }
 }
