@@ -158,7 +158,7 @@ impl Report {
             write_x
         ));
         out.push_str(&format!(
-            "| the same match with ground truth ({} messages), `replay --no-log`: read, re-fuse, score | {:.3} s = {:.0}× real time | | |\n",
+            "| the same match with ground truth ({} messages), `replay --no-log` and `score_log`: read, re-fuse, score | {:.3} s = {:.0}× real time | | |\n",
             r.messages,
             r.full_s,
             full_x
