@@ -362,15 +362,17 @@ impl Live {
         } else {
             Vec::new()
         };
+        // Logged under the lock: every input applied after this state is logged after it,
+        // so a replay of the log recomputes exactly this state.
+        if let (Some(p), Some(log)) = (&payload, &self.log) {
+            log.log(LogKind::BallState, &self.state_key, now, p);
+        }
         let view = with_view.then(|| {
             let view = self.view(&inner, now, state);
             Arc::<str>::from(serde_json::to_string(&view).unwrap_or_default())
         });
         drop(inner);
-        if let Some(p) = &payload {
-            if let Some(log) = &self.log {
-                log.log(LogKind::BallState, &self.state_key, now, p);
-            }
+        if payload.is_some() {
             if let Ok(mut h) = self.stats.obs_to_state_s.lock() {
                 for a in arrivals {
                     h.observe(now.secs_since(a));
