@@ -367,7 +367,8 @@ impl Live {
         if let (Some(p), Some(log)) = (&payload, &self.log) {
             log.log(LogKind::BallState, &self.state_key, now, p);
         }
-        let view = with_view.then(|| {
+        // The view only for watchers: nobody else needs it made at every tick.
+        let view = (with_view && self.stream.receiver_count() > 0).then(|| {
             let view = self.view(&inner, now, state);
             Arc::<str>::from(serde_json::to_string(&view).unwrap_or_default())
         });
@@ -394,17 +395,23 @@ impl Live {
         let _ = self.stream.send(frame);
     }
 
-    /// The view `GET /api/state` serves: the last published one while it is fresh (the
-    /// publisher made it less than a tick ago), else taken now.
+    /// The view `GET /api/state` serves: the last one made (for the live stream or for an
+    /// earlier request) while it is fresh, less than about a tick old; else one taken now,
+    /// kept for the requests that follow. However many ask, the view is serialised at most
+    /// about once a tick.
     pub fn current_view(&self) -> Arc<str> {
-        if let Some(max_age) = self.view_max_age.get()
-            && let Ok(last) = self.last_view.lock()
-            && let Some((made, view)) = last.as_ref()
+        let Some(max_age) = self.view_max_age.get() else {
+            return Arc::from(self.view_json());
+        };
+        let mut last = self.last_view.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((made, view)) = last.as_ref()
             && made.elapsed() <= *max_age
         {
             return view.clone();
         }
-        Arc::from(self.view_json())
+        let view: Arc<str> = Arc::from(self.view_json());
+        *last = Some((Instant::now(), view.clone()));
+        view
     }
 
     /// The view taken now.

@@ -227,6 +227,9 @@ async fn the_state_endpoint_serves_the_published_view_while_it_is_fresh() {
     // Without a publisher task nothing is cached: each request takes the view now.
     assert!(!Arc::ptr_eq(&live.current_view(), &live.current_view()));
     live.set_view_max_age(std::time::Duration::from_secs(60));
+    // Nobody watches the stream: a tick makes no view.
+    assert!(live.publication(true).view.is_none());
+    let _watcher = live.stream.subscribe();
     let view = live.publication(true).view.expect("a view");
     assert!(Arc::ptr_eq(&live.current_view(), &view));
     let (status, body) = get(app(live.clone()), "/api/state").await;
@@ -238,4 +241,6 @@ async fn the_state_endpoint_serves_the_published_view_while_it_is_fresh() {
     let next = live.publication(true).view.expect("a view");
     assert!(!Arc::ptr_eq(&next, &view));
     assert!(Arc::ptr_eq(&live.current_view(), &next));
+    // Requests between ticks share one view.
+    assert!(Arc::ptr_eq(&live.current_view(), &live.current_view()));
 }
