@@ -1,5 +1,6 @@
 //! The I/O shell around the pure layers: the Zenoh session and its one publisher task
-//! ([`serve`]), observations taken off the network threads ([`intake`]) into the shared
+//! ([`serve`]), which publishes only while this server is the active one of its prefix
+//! ([`standby`]), observations taken off the network threads ([`intake`]) into the shared
 //! state ([`live`]), HTTP and the live stream ([`http`], whose [`http::guard`] bounds
 //! connections), [`metrics`], Zenoh settings ([`net`]) and the settings of a server from
 //! its file and flags ([`config`], [`args`]).
@@ -12,3 +13,4 @@ pub mod live;
 pub mod metrics;
 pub mod net;
 pub mod serve;
+pub mod standby;

@@ -120,6 +120,7 @@ pub struct Live {
     pub publish_on_update: bool,
     /// Wakes the publisher task after an accepted observation, with `publish_on_update`.
     pub updated: tokio::sync::Notify,
+
     /// The last published view and when it was made; served while younger than
     /// `view_max_age`.
     last_view: Mutex<Option<(Instant, Arc<str>)>>,
@@ -154,6 +155,7 @@ impl Live {
             stream,
             publish_on_update,
             updated: tokio::sync::Notify::new(),
+
             last_view: Mutex::new(None),
             view_max_age: OnceLock::new(),
             log,
@@ -176,6 +178,15 @@ impl Live {
     /// (set once, by the publisher task, to a little more than its tick).
     pub fn set_view_max_age(&self, age: Duration) {
         let _ = self.view_max_age.set(age);
+    }
+
+    /// Whether this server publishes the ball (see `shell::standby`).
+    pub fn is_active(&self) -> bool {
+        !self.stats.standby.load(Relaxed)
+    }
+
+    pub fn set_active(&self, active: bool) {
+        self.stats.standby.store(!active, Relaxed);
     }
 
     pub fn replay(&self) -> Option<&Arc<ReplayControl>> {

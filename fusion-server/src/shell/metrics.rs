@@ -80,6 +80,9 @@ pub struct ShellStats {
     pub record_skipped_rejected: AtomicU64,
     /// Seconds from an observation's arrival to the publication of a state that includes it.
     pub obs_to_state_s: Mutex<Histogram>,
+    /// This server stands by: a live server of its prefix has a smaller id and publishes
+    /// the ball (see `shell::standby`).
+    pub standby: std::sync::atomic::AtomicBool,
     /// Live-stream clients dropped because a frame could not be sent in time.
     pub ws_send_timeouts: AtomicU64,
     /// The HTTP listener's connections and deadlines.
@@ -307,6 +310,15 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             }
         }
     }
+
+    let name = "rf_server_active";
+    family(
+        &mut out,
+        name,
+        "gauge",
+        "1 while this server publishes the ball; 0 while it stands by for a server of the same prefix with a smaller id.",
+    );
+    let _ = writeln!(out, "{name} {}", u8::from(!shell.standby.load(Relaxed)));
 
     let name = "rf_robots_clock_suspect";
     family(

@@ -192,6 +192,10 @@ pub async fn serve(
         .map_err(|e| anyhow::anyhow!("declaring the predict queryable: {e}"))?;
     let server_key = keys.server_liveliness(&cfg.server_id)?;
     refuse_duplicate_id(&session, &cfg, &server_key).await?;
+    // Watch the other servers of this prefix before declaring ours: a standby must know
+    // its place before it could publish.
+    let _standby =
+        crate::shell::standby::watch(&session, &cfg.prefix, &cfg.server_id, live.clone()).await?;
     let _token = session
         .liveliness()
         .declare_token(server_key)
@@ -269,8 +273,14 @@ async fn publish(
                 continue;
             }
         };
+        // A standby keeps the same state and says nothing; the active server signs what it
+        // publishes with its id (the sample's attachment).
         if let Some(payload) = publication.payload
-            && let Err(e) = publisher.put(payload).await
+            && live.is_active()
+            && let Err(e) = publisher
+                .put(payload)
+                .attachment(cfg.server_id.as_bytes().to_vec())
+                .await
         {
             tracing::warn!("publishing the ball state failed: {e}");
         }

@@ -59,10 +59,28 @@ impl TestServer {
         cfg: ServeConfig,
         log: Option<Arc<dyn fusion_server::shell::live::MatchLog>>,
     ) -> anyhow::Result<TestServer> {
+        Self::launch(id, cfg, log, Vec::new()).await
+    }
+
+    /// [`TestServer::start`] for a server that also connects to `peers` (other servers).
+    pub async fn start_joining(id: &str, peers: &[&str]) -> anyhow::Result<TestServer> {
+        let peers = peers.iter().map(|p| p.to_string()).collect();
+        Self::launch(id, ServeConfig::default(), None, peers).await
+    }
+
+    async fn launch(
+        id: &str,
+        cfg: ServeConfig,
+        log: Option<Arc<dyn fusion_server::shell::live::MatchLog>>,
+        peers: Vec<String>,
+    ) -> anyhow::Result<TestServer> {
         let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
         let cfg = ServeConfig {
             server_id: id.into(),
-            net: NetConfig::listening(&endpoint),
+            net: NetConfig {
+                connect: peers,
+                ..NetConfig::listening(&endpoint)
+            },
             ..cfg
         };
         let live = serve::shared(&cfg, Arc::new(SystemClock), log)?;
