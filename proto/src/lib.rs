@@ -14,6 +14,7 @@ pub mod miro;
 #[cfg(feature = "zenoh")]
 pub mod net;
 mod pitch;
+pub mod rng;
 pub mod schema;
 mod stamp;
 pub mod stats;

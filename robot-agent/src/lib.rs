@@ -34,7 +34,6 @@ pub mod io;
 pub mod labels;
 pub mod pipeline;
 pub mod projection;
-mod rng;
 pub mod runtime;
 #[cfg(test)]
 mod test_fixtures;

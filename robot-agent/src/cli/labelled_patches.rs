@@ -8,8 +8,8 @@ use crate::cli::labelled::LabelledFolder;
 use crate::detection::detect::NoClock;
 use crate::detection::patch::{Patch, PatchConfig, extract};
 use crate::labels::BallBox;
-use crate::rng::Xoshiro256;
 use anyhow::Result;
+use proto::rng::Rng;
 
 /// Smallest radius of a random negative window, pixels (the detector's smallest circle).
 const MIN_RANDOM_RADIUS_PX: f64 = 4.0;
@@ -42,7 +42,7 @@ pub fn labelled_patches(
 ) -> Result<(Vec<Patch>, Vec<Patch>)> {
     let detectors = crate::detection::train::miners()?;
     let cfg = PatchConfig::default();
-    let mut rng = Xoshiro256::stream(seed, "labelled-negatives", 0);
+    let mut rng = Rng::stream(seed, "labelled-negatives", 0);
     let (mut pos, mut neg) = (Vec::new(), Vec::new());
     let n = folder.items.len();
     for (k, item) in folder.items.iter().enumerate() {

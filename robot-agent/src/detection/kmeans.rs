@@ -24,7 +24,7 @@ use thiserror::Error;
 
 use crate::detection::hsv::{HsvError, HsvThresholds, rgb_to_hsv};
 use crate::image::RgbImage;
-use crate::rng::SplitMix64;
+use proto::rng::SplitMix64;
 
 /// Why a colour check could not be made.
 #[derive(Debug, Clone, PartialEq, Error)]

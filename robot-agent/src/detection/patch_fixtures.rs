@@ -10,7 +10,7 @@
 
 use crate::detection::patch::{Patch, PatchConfig, extract};
 use crate::image::RgbImage;
-use crate::rng::SplitMix64;
+use proto::rng::SplitMix64;
 
 /// Side of the painted frame, pixels.
 const FRAME_PX: u32 = 64;

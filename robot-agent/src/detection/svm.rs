@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 pub use crate::detection::svm_model::{MODEL_VERSION, Model, Platt};
-use crate::rng::SplitMix64;
+use proto::rng::SplitMix64;
 
 /// Why an SVM could not be trained, or a model could not be used or loaded.
 #[derive(Debug, Clone, PartialEq, Error)]

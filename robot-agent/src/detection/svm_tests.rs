@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 
 use super::*;
-use crate::rng::SplitMix64;
+use proto::rng::SplitMix64;
 
 /// XOR-like data: label = sign(x) == sign(y), points away from the axes, plus 3 noise
 /// dimensions.

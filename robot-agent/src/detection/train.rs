@@ -30,7 +30,7 @@ use crate::detection::svm::{
     Model, Platt, SvmError, SvmParams, cross_val_decisions, fit_uncalibrated,
 };
 use crate::detection::two_colour::PatternConfig;
-use crate::rng::SplitMix64;
+use proto::rng::SplitMix64;
 
 /// Why training failed.
 #[derive(Debug, Clone, PartialEq, Error)]

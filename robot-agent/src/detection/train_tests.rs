@@ -5,7 +5,7 @@
 
 use super::*;
 use crate::detection::patch_fixtures::patches;
-use crate::rng::SplitMix64;
+use proto::rng::SplitMix64;
 
 /// A configuration small enough for debug-mode tests.
 fn small() -> TrainConfig {
