@@ -42,6 +42,15 @@ pub struct Target {
     pub check: Box<dyn FnMut(&[u8]) -> Verdict>,
 }
 
+impl std::fmt::Debug for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Target")
+            .field("name", &self.name)
+            .field("seeds", &self.seeds.len())
+            .finish_non_exhaustive()
+    }
+}
+
 impl Target {
     pub fn new(
         name: &'static str,

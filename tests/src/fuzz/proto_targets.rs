@@ -20,7 +20,10 @@ fn decode_validate<T: DeserializeOwned + Validate>(bytes: &[u8]) -> Verdict {
 }
 
 /// A message type's target: decode then validate.
-fn message<T: DeserializeOwned + Validate>(name: &'static str, seeds: Vec<Vec<u8>>) -> Target {
+fn message<T: DeserializeOwned + Validate + 'static>(
+    name: &'static str,
+    seeds: Vec<Vec<u8>>,
+) -> Target {
     Target::new(name, seeds, decode_validate::<T>)
 }
 
