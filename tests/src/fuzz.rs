@@ -33,13 +33,16 @@ impl Verdict {
     }
 }
 
+/// Runs one input and says what the product made of it.
+pub type Check = Box<dyn FnMut(&[u8]) -> Verdict>;
+
 /// One decoder or validator under test, with its valid seeds.
 pub struct Target {
     pub name: &'static str,
     /// Valid inputs the mutations start from.
     pub seeds: Vec<Vec<u8>>,
     /// Runs one input; panics (or failed assertions on its output) are findings.
-    pub check: Box<dyn FnMut(&[u8]) -> Verdict>,
+    pub check: Check,
 }
 
 impl std::fmt::Debug for Target {

@@ -18,7 +18,7 @@ pub fn observation(robot_id: &str, seq: u64, dt_s: f64, position_m: [f64; 2]) ->
         version: proto::VERSION,
         robot_id: robot_id.to_owned(),
         seq,
-        camera: if seq % 2 == 0 {
+        camera: if seq.is_multiple_of(2) {
             Camera::Left
         } else {
             Camera::Right
@@ -32,7 +32,7 @@ pub fn observation(robot_id: &str, seq: u64, dt_s: f64, position_m: [f64; 2]) ->
             y_m: 0.5,
             theta_rad: 0.3,
         },
-        pixel: (seq % 3 == 0).then_some(PixelBall {
+        pixel: seq.is_multiple_of(3).then_some(PixelBall {
             u_px: 320.5,
             v_px: 240.25,
             radius_px: 12.0,
