@@ -8,6 +8,7 @@ pub mod agent_recall;
 pub mod baseline;
 pub mod bench;
 pub mod eval;
+pub mod fuzz;
 pub mod methods;
 pub mod photo_eval;
 pub mod photo_set;

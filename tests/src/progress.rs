@@ -60,6 +60,11 @@ impl Progress {
     }
 
     /// Removes the bar and prints the summary line: count, kind and elapsed seconds.
+    /// Runs `f` (which may print) with the bar hidden.
+    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        self.bar.suspend(f)
+    }
+
     pub fn finish(&self) {
         self.bar.finish_and_clear();
         if !self.what.is_empty() {
