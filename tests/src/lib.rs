@@ -2,13 +2,16 @@
 //! the seed's method and an oracle, scored against ground truth; and recorded ball tracks
 //! (`tracks`, `track_*`), observed by simulated robots and scored against themselves; and
 //! the robot agent driven by the simulator (`sim_source`, `agent_recall`, `sim_patches`,
-//! behind the `sim_agent`, `bench_agent`, `sim_calibrate` and `train_sim` binaries).
+//! behind the `sim_agent`, `bench_agent`, `sim_calibrate` and `train_sim` binaries); and the
+//! load test of a server process fed by many robots at once (`load`, `load_report`).
 
 pub mod agent_recall;
 pub mod baseline;
 pub mod bench;
 pub mod eval;
 pub mod fuzz;
+pub mod load;
+pub mod load_report;
 pub mod methods;
 pub mod photo_eval;
 pub mod photo_set;

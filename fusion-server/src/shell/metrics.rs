@@ -116,7 +116,13 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 21] = [
+    let simple: [(&str, &str, &str, u64); 22] = [
+        (
+            "rf_inputs_received_total",
+            "counter",
+            "Observation and status payloads that arrived, whatever became of them (each is then accepted or rejected).",
+            shell.inputs_received.load(Relaxed),
+        ),
         (
             "rf_observations_accepted_total",
             "counter",
