@@ -30,6 +30,9 @@ pub struct LoadConfig {
     pub capture_delay_s: f64,
     /// Longest wait after the last send for the server to account for everything.
     pub drain_s: f64,
+    /// Robots wait for room in Zenoh's send queue instead of dropping (the agent drops,
+    /// Zenoh's default): with it, a loss can only be the server's.
+    pub block: bool,
 }
 
 impl Default for LoadConfig {
@@ -42,6 +45,7 @@ impl Default for LoadConfig {
             robots_per_session: 1,
             capture_delay_s: 0.04,
             drain_s: 5.0,
+            block: false,
         }
     }
 }
@@ -260,6 +264,11 @@ async fn fleet(endpoint: &str, cfg: &LoadConfig) -> Result<Fleet> {
         let publ = session
             .declare_publisher(keys.robot_obs(&id)?)
             .express(true)
+            .congestion_control(if cfg.block {
+                zenoh::qos::CongestionControl::Block
+            } else {
+                zenoh::qos::CongestionControl::Drop
+            })
             .await
             .map_err(|e| anyhow::anyhow!("observation publisher: {e}"))?;
         f.tokens.push(token);

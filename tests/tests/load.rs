@@ -14,6 +14,8 @@ async fn ten_robots_lose_nothing() {
         cameras: 2,
         hz: 30.0,
         seconds: 3.0,
+        // Senders that never drop: what is lost can only be the server's.
+        block: true,
         ..LoadConfig::default()
     };
     let progress = Progress::hidden(3);

@@ -28,6 +28,10 @@ struct Args {
     /// Robots sharing one Zenoh session (1: a session each, as on the real robots).
     #[arg(long, default_value_t = 1)]
     robots_per_session: usize,
+    /// Robots wait for room in Zenoh's send queue instead of dropping (the agent drops):
+    /// any loss left is the server's.
+    #[arg(long)]
+    block: bool,
     /// The server binary [default: `fusion-server` beside this one].
     #[arg(long)]
     server: Option<PathBuf>,
@@ -70,6 +74,7 @@ fn run(args: Args) -> Result<()> {
         hz: args.hz,
         seconds: args.seconds,
         robots_per_session: args.robots_per_session,
+        block: args.block,
         ..LoadConfig::default()
     };
     let rt = tokio::runtime::Builder::new_multi_thread()

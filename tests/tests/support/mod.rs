@@ -15,29 +15,20 @@ pub const SIM_ROBOTS: &str = env!("CARGO_BIN_EXE_sim_robots");
 /// The harness's match-log writer.
 pub const SIMULATE: &str = env!("CARGO_BIN_EXE_simulate");
 
-/// The `fusion-server` binary of this build (`cargo test --workspace` builds it beside the
-/// harness's own); built here when it is not there yet.
+/// The `fusion-server` binary of this build, beside the harness's own: `cargo test
+/// --workspace` builds it (fusion-server's own tests need it). A test cannot build it
+/// itself: cargo holds the build directory while tests run.
 pub fn server_bin() -> std::path::PathBuf {
-    static BIN: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
-    BIN.get_or_init(|| {
-        let dir = std::path::Path::new(SIM_ROBOTS)
-            .parent()
-            .expect("the binaries' folder")
-            .to_path_buf();
-        let bin = dir.join(format!("fusion-server{}", std::env::consts::EXE_SUFFIX));
-        if !bin.is_file() {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let mut cmd = Command::new(cargo);
-            cmd.args(["build", "-p", "fusion-server", "--bin", "fusion-server"]);
-            if dir.ends_with("release") {
-                cmd.arg("--release");
-            }
-            let status = cmd.status().expect("cargo build");
-            assert!(status.success(), "building fusion-server failed");
-        }
-        bin
-    })
-    .clone()
+    let dir = std::path::Path::new(SIM_ROBOTS)
+        .parent()
+        .expect("the binaries' folder");
+    let bin = dir.join(format!("fusion-server{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        bin.is_file(),
+        "no {}: build it first (`cargo build -p fusion-server`, or run `cargo test --workspace`)",
+        bin.display()
+    );
+    bin
 }
 
 /// A child process killed (SIGKILL) when dropped.
