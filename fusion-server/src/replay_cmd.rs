@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use fusion_server::matchlog::RecorderSink;
 use fusion_server::matchlog::read::{LogMessage, read_logs};
 use fusion_server::matchlog::record::RecorderConfig;
+use fusion_server::matchlog::record::remove_earlier;
 use fusion_server::matchlog::replay::{
     ReplayOptions, ReplayOutputs, StatesCsv, replay, summary_json, summary_text,
 };
@@ -43,21 +44,6 @@ fn progress_bar(label: &'static str) -> impl FnMut(usize, usize) {
             eprintln!("{label}: {pct}% ({done}/{total})");
         }
     }
-}
-
-/// Removes the logs in `dir` that an earlier run of the same command wrote (`{prefix}-….mcap`).
-fn remove_earlier(dir: &std::path::Path, prefix: &str) -> Result<()> {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Ok(());
-    };
-    let stem = format!("{prefix}-");
-    for e in entries.flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        if name.starts_with(&stem) && name.ends_with(".mcap") {
-            std::fs::remove_file(e.path())?;
-        }
-    }
-    Ok(())
 }
 
 fn read(files: &[std::path::PathBuf]) -> Result<Vec<LogMessage>> {

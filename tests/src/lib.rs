@@ -12,6 +12,7 @@ pub mod eval;
 pub mod fuzz;
 pub mod load;
 pub mod load_report;
+pub mod logging;
 pub mod methods;
 pub mod photo_eval;
 pub mod photo_set;

@@ -166,6 +166,23 @@ impl Schema {
     }
 }
 
+/// Removes the logs in `dir` that an earlier run of the same command wrote
+/// (`{prefix}-….mcap`): a tool that writes the same file again replaces it. A missing
+/// folder holds nothing to remove.
+pub fn remove_earlier(dir: &std::path::Path, prefix: &str) -> std::io::Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let stem = format!("{prefix}-");
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with(&stem) && name.ends_with(".mcap") {
+            std::fs::remove_file(e.path())?;
+        }
+    }
+    Ok(())
+}
+
 /// The JSON Schemas of every wire message (`proto::schema::all()`), ready to attach to
 /// records.
 pub fn proto_schemas() -> Vec<Arc<Schema>> {
@@ -241,6 +258,28 @@ pub enum RecordError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_earlier_run_s_logs_are_removed_and_nothing_else() -> std::io::Result<()> {
+        let dir = tempfile::tempdir()?;
+        for name in [
+            "sim-a-1-000.mcap",
+            "sim-a-1-001.mcap",
+            "sim-a-10-000.mcap",
+            "notes.mcap",
+            "sim-a-1.txt",
+        ] {
+            std::fs::write(dir.path().join(name), b"x")?;
+        }
+        remove_earlier(dir.path(), "sim-a-1")?;
+        let mut left: Vec<String> = std::fs::read_dir(dir.path())?
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["notes.mcap", "sim-a-1.txt", "sim-a-10-000.mcap"]);
+        remove_earlier(&dir.path().join("missing"), "x")
+    }
 
     #[test]
     fn the_default_configuration_is_valid() {

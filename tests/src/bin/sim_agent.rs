@@ -58,12 +58,7 @@ fn main() -> Result<()> {
         argv.remove(1);
     }
     let args = Args::parse_from(argv);
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+    harness::logging::init();
     if args.source != "sim" {
         bail!(
             "source {:?}: sim_agent renders the simulator's cameras (`--source sim`); \

@@ -34,12 +34,7 @@ struct Args {
 
 fn main() -> Result<()> {
     let a = Args::parse();
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+    harness::logging::init();
     tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?

@@ -6,6 +6,7 @@ use anyhow::Result;
 use clap::Parser;
 use fusion_server::matchlog::RecorderSink;
 use fusion_server::matchlog::record::RecorderConfig;
+use fusion_server::matchlog::record::remove_earlier;
 use fusion_server::shell::config::PitchFlags;
 use harness::sim_args::MatchArgs;
 use harness::sim_log::{truth_schemas, write_simulated};
@@ -23,21 +24,6 @@ struct Args {
     /// Directory for the log file.
     #[arg(long, default_value = "out/logs")]
     out: PathBuf,
-}
-
-/// Removes the logs in `dir` that an earlier run of the same command wrote (`{prefix}-….mcap`).
-fn remove_earlier(dir: &std::path::Path, prefix: &str) -> Result<()> {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Ok(());
-    };
-    let stem = format!("{prefix}-");
-    for e in entries.flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        if name.starts_with(&stem) && name.ends_with(".mcap") {
-            std::fs::remove_file(e.path())?;
-        }
-    }
-    Ok(())
 }
 
 fn main() -> Result<()> {
