@@ -14,7 +14,7 @@ use robot_agent::runtime::models::{classifier, load_models};
 use robot_agent::runtime::ros_frames::RosTopics;
 use robot_agent::runtime::source::{FrameSource, McapSource};
 use robot_agent::runtime::timer::StageTimer;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 const T0_S: u32 = 1_700_000_000;
 const LEFT: &str = "/miro/sensors/caml/compressed";
@@ -24,47 +24,6 @@ const IMAGE: &str = "sensor_msgs/CompressedImage";
 
 fn ns(secs: u32, nsecs: u32) -> u64 {
     u64::from(secs) * 1_000_000_000 + u64::from(nsecs)
-}
-
-/// One message to write: topic, schema name, log time, payload.
-type Msg = (&'static str, &'static str, u64, Vec<u8>);
-
-/// Writes `messages` to an MCAP file with ROS 1 (`ros1msg`, `ros1`) or ROS 2 (`ros2msg`,
-/// `cdr`) channels, one per topic.
-fn write_bag(path: &Path, cdr: bool, messages: &[Msg]) {
-    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
-    let mut w = mcap::WriteOptions::new()
-        .profile(if cdr { "ros2" } else { "ros1" })
-        .create(file)
-        .unwrap();
-    let (schema_encoding, message_encoding) = if cdr {
-        ("ros2msg", "cdr")
-    } else {
-        ("ros1msg", "ros1")
-    };
-    let mut channels = std::collections::BTreeMap::new();
-    for (seq, (topic, schema, log_time, data)) in messages.iter().enumerate() {
-        let id = *channels.entry(*topic).or_insert_with(|| {
-            let name = if cdr {
-                schema.replacen('/', "/msg/", 1)
-            } else {
-                schema.to_string()
-            };
-            let s = w
-                .add_schema(&name, schema_encoding, b"# definition not needed")
-                .unwrap();
-            w.add_channel(s, topic, message_encoding, &Default::default())
-                .unwrap()
-        });
-        let header = mcap::records::MessageHeader {
-            channel_id: id,
-            sequence: seq as u32,
-            log_time: *log_time,
-            publish_time: *log_time,
-        };
-        w.write_to_known_channel(&header, data).unwrap();
-    }
-    w.finish().unwrap();
 }
 
 fn all_frames(path: PathBuf, topics: &RosTopics) -> Vec<StoredFrame> {
@@ -153,7 +112,7 @@ fn the_pipeline_finds_the_ball_in_a_recorded_rendered_frame() {
         Camera::Right => (RIGHT, "camr"),
     };
     let (h, p) = (frame.state.head, frame.state.pose);
-    let messages: Vec<Msg> = vec![
+    let messages: Vec<fx::Msg> = vec![
         (
             JOINTS,
             "sensor_msgs/JointState",
@@ -180,7 +139,7 @@ fn the_pipeline_finds_the_ball_in_a_recorded_rendered_frame() {
     ];
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("rendered.mcap");
-    write_bag(&path, true, &messages);
+    fx::write_bag(&path, true, &messages);
     let back = all_frames(path, &RosTopics::default());
     assert_eq!(back.len(), 1);
     let f = &back[0];

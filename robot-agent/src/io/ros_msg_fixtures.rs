@@ -143,3 +143,46 @@ pub fn odometry(
     }
     e.done()
 }
+
+/// One message of a test bag: topic, ROS type (`sensor_msgs/CompressedImage`), log time
+/// (ns) and the encoded message.
+pub type Msg = (&'static str, &'static str, u64, Vec<u8>);
+
+/// Writes `messages` to an MCAP file with ROS 1 (`ros1msg`, `ros1`) or ROS 2 (`ros2msg`,
+/// `cdr`) channels, one per topic.
+pub fn write_bag(path: &std::path::Path, cdr: bool, messages: &[Msg]) {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).expect("test bag written"));
+    let mut w = mcap::WriteOptions::new()
+        .profile(if cdr { "ros2" } else { "ros1" })
+        .create(file)
+        .expect("test bag written");
+    let (schema_encoding, message_encoding) = if cdr {
+        ("ros2msg", "cdr")
+    } else {
+        ("ros1msg", "ros1")
+    };
+    let mut channels = std::collections::BTreeMap::new();
+    for (seq, (topic, schema, log_time, data)) in messages.iter().enumerate() {
+        let id = *channels.entry(*topic).or_insert_with(|| {
+            let name = if cdr {
+                schema.replacen('/', "/msg/", 1)
+            } else {
+                schema.to_string()
+            };
+            let s = w
+                .add_schema(&name, schema_encoding, b"# definition not needed")
+                .expect("test bag written");
+            w.add_channel(s, topic, message_encoding, &Default::default())
+                .expect("test bag written")
+        });
+        let header = mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: seq as u32,
+            log_time: *log_time,
+            publish_time: *log_time,
+        };
+        w.write_to_known_channel(&header, data)
+            .expect("test bag written");
+    }
+    w.finish().expect("test bag written");
+}

@@ -8,55 +8,14 @@
 use super::*;
 use crate::image::RgbImage;
 use crate::runtime::source::{FrameSource, McapSource};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use crate::io::ros_msg_fixtures as fx;
 
 const T0_S: u32 = 1_700_000_000;
 
-/// One message to write: topic, schema name, log time, payload.
-type Msg = (&'static str, &'static str, u64, Vec<u8>);
-
 fn ns(secs: u32, nsecs: u32) -> u64 {
     u64::from(secs) * 1_000_000_000 + u64::from(nsecs)
-}
-
-/// Writes `messages` to an MCAP file with ROS 1 (`ros1msg`, `ros1`) or ROS 2 (`ros2msg`,
-/// `cdr`) channels, one per topic.
-fn write_bag(path: &Path, cdr: bool, messages: &[Msg]) {
-    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
-    let mut w = mcap::WriteOptions::new()
-        .profile(if cdr { "ros2" } else { "ros1" })
-        .create(file)
-        .unwrap();
-    let (schema_encoding, message_encoding) = if cdr {
-        ("ros2msg", "cdr")
-    } else {
-        ("ros1msg", "ros1")
-    };
-    let mut channels = std::collections::BTreeMap::new();
-    for (seq, (topic, schema, log_time, data)) in messages.iter().enumerate() {
-        let id = *channels.entry(*topic).or_insert_with(|| {
-            let name = if cdr {
-                schema.replacen('/', "/msg/", 1)
-            } else {
-                schema.to_string()
-            };
-            let s = w
-                .add_schema(&name, schema_encoding, b"# definition not needed")
-                .unwrap();
-            w.add_channel(s, topic, message_encoding, &Default::default())
-                .unwrap()
-        });
-        let header = mcap::records::MessageHeader {
-            channel_id: id,
-            sequence: seq as u32,
-            log_time: *log_time,
-            publish_time: *log_time,
-        };
-        w.write_to_known_channel(&header, data).unwrap();
-    }
-    w.finish().unwrap();
 }
 
 /// An orange disc on green, as PNG.
@@ -113,7 +72,7 @@ fn miro_recordings_are_read_in_both_encodings() {
         let path = dir.path().join(format!("miro-{cdr}.mcap"));
         let mut corrupt = image(cdr, (T0_S, 300), "caml", 20);
         corrupt.truncate(corrupt.len() / 2);
-        let messages: Vec<Msg> = vec![
+        let messages: Vec<fx::Msg> = vec![
             (
                 "/miro/sensors/body_pose",
                 "geometry_msgs/Pose2D",
@@ -161,7 +120,7 @@ fn miro_recordings_are_read_in_both_encodings() {
                 vec![1, 2, 3],
             ),
         ];
-        write_bag(&path, cdr, &messages);
+        fx::write_bag(&path, cdr, &messages);
         let read = crate::runtime::frames_io::read_mcap(&path, &RosTopics::default()).unwrap();
         assert_eq!(read.skipped.len(), 1, "{:?}", read.skipped);
         assert!(
@@ -199,7 +158,7 @@ fn miro_recordings_are_read_in_both_encodings() {
 fn odometry_and_configured_topics_are_used() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("odom.mcap");
-    let messages: Vec<Msg> = vec![
+    let messages: Vec<fx::Msg> = vec![
         (
             "/r1/odom",
             "nav_msgs/Odometry",
@@ -226,7 +185,7 @@ fn odometry_and_configured_topics_are_used() {
             image(true, (T0_S, 20), "caml", 20),
         ),
     ];
-    write_bag(&path, true, &messages);
+    fx::write_bag(&path, true, &messages);
     let topics = RosTopics {
         left_topic: "/r1/left".into(),
         right_topic: "/r1/right".into(),
@@ -253,7 +212,7 @@ fn odometry_and_configured_topics_are_used() {
 fn images_alone_use_the_defaults() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("images.mcap");
-    write_bag(
+    fx::write_bag(
         &path,
         false,
         &[(
@@ -279,7 +238,7 @@ fn images_alone_use_the_defaults() {
 fn a_camera_topic_of_another_type_is_reported() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("wrong.mcap");
-    write_bag(
+    fx::write_bag(
         &path,
         true,
         &[(LEFT, "sensor_msgs/Image", ns(T0_S, 0), vec![0; 40])],
