@@ -28,6 +28,9 @@ pub enum Command {
     Serve(ServeArgs),
     /// Replay match logs: re-fuse offline (default), or serve them as if live.
     Replay(ReplayArgs),
+    /// Make the certificates of a secured network: its authority, one folder per robot,
+    /// server and router, and the routers' zenohd configurations.
+    Keys(crate::keys_cmd::KeysArgs),
 }
 
 #[derive(Debug, Clone, Args)]
@@ -78,6 +81,7 @@ pub struct ReplayArgs {
 
 async fn serve_cmd(a: ServeArgs) -> Result<()> {
     let (cfg, rec) = serve_config(&a)?;
+    cfg.check_security()?;
     let http = bind_http(&cfg.http).await?;
     let log = start_log(rec)?;
     let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
@@ -93,6 +97,7 @@ pub async fn run(cli: Cli) -> Result<()> {
         Command::Serve(a) => serve_cmd(a).await,
         Command::Replay(a) if a.realtime => crate::replay_cmd::realtime(a).await,
         Command::Replay(a) => crate::replay_cmd::offline(a),
+        Command::Keys(a) => crate::keys_cmd::run(a),
     }
 }
 

@@ -7,10 +7,14 @@
 //!
 //! **Match logs** ([`matchlog`]): writing, reading, re-fusing and replaying MCAP files.
 //!
+//! **Security** ([`security`]): the certificates and access-control list of a secured
+//! Zenoh network.
+//!
 //! **The shell** ([`shell`]): Zenoh, HTTP, the live stream, metrics and settings.
 
 pub mod engine;
 pub mod estimator;
 pub mod matchlog;
 pub mod query;
+pub mod security;
 pub mod shell;

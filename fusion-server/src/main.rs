@@ -1,6 +1,7 @@
 //! `fusion-server`: the team ball server, and replay of match logs.
 
 mod cli;
+mod keys_cmd;
 mod replay_cmd;
 
 use anyhow::Result;

@@ -1,8 +1,12 @@
 //! Zenoh session settings shared by every process of the product (with the `zenoh`
 //! feature): peer mode with explicit endpoints, and scouting off unless asked for, so
-//! nothing leaves the configured links.
+//! nothing leaves the configured links. With [`TlsFiles`], every link is TLS with mutual
+//! authentication: a node proves who it is with a certificate signed by the network's
+//! certificate authority, and its certificate's common name is what access-control lists
+//! name it by.
 
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 #[derive(Debug, Error)]
@@ -15,6 +19,54 @@ pub enum NetError {
     Config(String),
     #[error("zenoh: {0}")]
     Zenoh(String),
+    #[error(
+        "zenoh endpoint {0:?} is not TLS: with certificates every endpoint must be tls/HOST:PORT, \
+         or peers could join without one"
+    )]
+    PlainEndpoint(String),
+    #[error("zenoh endpoint {0:?} is TLS but no certificates are given (--tls DIR)")]
+    NoCertificates(String),
+    #[error("TLS file {path}: {source}")]
+    TlsFile {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// A node's TLS files (PEM): the network's certificate authority, and this node's
+/// certificate and private key, both for the links it accepts and those it opens.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TlsFiles {
+    /// The certificate authority every node's certificate must be signed by.
+    pub ca: PathBuf,
+    /// This node's certificate (its common name names it to access-control lists).
+    pub cert: PathBuf,
+    /// This node's private key.
+    pub key: PathBuf,
+}
+
+impl TlsFiles {
+    /// `ca.pem`, `cert.pem` and `key.pem` in `dir`: the layout `fusion-server keys` writes
+    /// for every node.
+    pub fn in_dir(dir: &Path) -> Self {
+        TlsFiles {
+            ca: dir.join("ca.pem"),
+            cert: dir.join("cert.pem"),
+            key: dir.join("key.pem"),
+        }
+    }
+
+    /// Every file is there and readable.
+    pub fn check(&self) -> Result<(), NetError> {
+        for path in [&self.ca, &self.cert, &self.key] {
+            std::fs::File::open(path).map_err(|source| NetError::TlsFile {
+                path: path.clone(),
+                source,
+            })?;
+        }
+        Ok(())
+    }
 }
 
 /// How a process joins the Zenoh network.
@@ -31,6 +83,8 @@ pub struct NetConfig {
     pub multicast_scouting: bool,
     /// Gossip scouting (peers tell each other about peers). Off by default.
     pub gossip_scouting: bool,
+    /// TLS with mutual authentication on every link (endpoints must then be `tls/`).
+    pub tls: Option<TlsFiles>,
 }
 
 impl Default for NetConfig {
@@ -41,6 +95,7 @@ impl Default for NetConfig {
             connect: Vec::new(),
             multicast_scouting: false,
             gossip_scouting: false,
+            tls: None,
         }
     }
 }
@@ -77,10 +132,24 @@ impl NetConfig {
         if !matches!(self.mode.as_str(), "peer" | "client" | "router") {
             return Err(NetError::BadMode(self.mode.clone()));
         }
-        self.listen
-            .iter()
-            .chain(&self.connect)
-            .try_for_each(|e| check_endpoint(e))
+        for e in self.listen.iter().chain(&self.connect) {
+            check_endpoint(e)?;
+            let is_tls = e.starts_with("tls/");
+            match &self.tls {
+                Some(_) if !is_tls => return Err(NetError::PlainEndpoint(e.clone())),
+                None if is_tls => return Err(NetError::NoCertificates(e.clone())),
+                _ => {}
+            }
+        }
+        match &self.tls {
+            Some(t) => t.check(),
+            None => Ok(()),
+        }
+    }
+
+    /// Whether links are TLS with mutual authentication.
+    pub fn is_secured(&self) -> bool {
+        self.tls.is_some()
     }
 
     /// The Zenoh configuration: exactly the listed endpoints, scouting as configured.
@@ -108,6 +177,22 @@ impl NetConfig {
         set(&mut c, "connect/exit_on_failure", "false".into())?;
         // No admin space, no timestamps we do not use.
         set(&mut c, "adminspace/enabled", "false".into())?;
+        if let Some(t) = &self.tls {
+            let path = |p: &PathBuf| {
+                p.to_str()
+                    .map(json)
+                    .ok_or_else(|| NetError::Config(format!("{} is not UTF-8", p.display())))
+            };
+            let tls = "transport/link/tls";
+            set(&mut c, &format!("{tls}/root_ca_certificate"), path(&t.ca)?)?;
+            set(&mut c, &format!("{tls}/listen_certificate"), path(&t.cert)?)?;
+            set(&mut c, &format!("{tls}/listen_private_key"), path(&t.key)?)?;
+            set(&mut c, &format!("{tls}/connect_certificate"), path(&t.cert)?)?;
+            set(&mut c, &format!("{tls}/connect_private_key"), path(&t.key)?)?;
+            // Both ends prove themselves, and the one connecting checks the other's name.
+            set(&mut c, &format!("{tls}/enable_mtls"), "true".into())?;
+            set(&mut c, &format!("{tls}/verify_name_on_connect"), "true".into())?;
+        }
         Ok(c)
     }
 
@@ -156,6 +241,44 @@ mod tests {
         assert_eq!(get("scouting/gossip/enabled"), "false");
         assert_eq!(get("listen/endpoints"), r#"["tcp/127.0.0.1:7447"]"#);
         assert_eq!(get("connect/endpoints"), "[]");
+        Ok(())
+    }
+
+    #[test]
+    fn tls_needs_tls_endpoints_and_readable_files() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = std::env::temp_dir().join(format!("rf-net-tls-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        let files = TlsFiles::in_dir(&dir);
+        let secured = |e: &str| NetConfig {
+            tls: Some(files.clone()),
+            ..NetConfig::listening(e)
+        };
+        // A plain endpoint next to certificates would let peers in without one.
+        assert!(matches!(
+            secured("tcp/127.0.0.1:7447").check(),
+            Err(NetError::PlainEndpoint(_))
+        ));
+        assert!(matches!(
+            NetConfig::connecting("tls/127.0.0.1:7447").check(),
+            Err(NetError::NoCertificates(_))
+        ));
+        // The files are missing, then there.
+        assert!(matches!(
+            secured("tls/127.0.0.1:7447").check(),
+            Err(NetError::TlsFile { .. })
+        ));
+        for f in [&files.ca, &files.cert, &files.key] {
+            std::fs::write(f, "-")?;
+        }
+        let c = secured("tls/127.0.0.1:7447");
+        c.check()?;
+        assert!(c.is_secured());
+        let z = c.zenoh_config()?;
+        let get = |k: &str| z.get_json(k).unwrap_or_default();
+        assert_eq!(get("transport/link/tls/enable_mtls"), "true");
+        assert_eq!(get("transport/link/tls/verify_name_on_connect"), "true");
+        assert!(get("transport/link/tls/connect_certificate").ends_with("cert.pem\""));
+        std::fs::remove_dir_all(&dir)?;
         Ok(())
     }
 }

@@ -43,7 +43,7 @@ function watchErrors(page, errors, phase) {
 }
 
 async function startServer(httpPort, zenohPort) {
-  const server = start(["serve", "--http", `127.0.0.1:${httpPort}`, "--listen", `tcp/127.0.0.1:${zenohPort}`,
+  const server = start(["serve", "--open", "--http", `127.0.0.1:${httpPort}`, "--listen", `tcp/127.0.0.1:${zenohPort}`,
     "--id", "web-test"], "server");
   const url = await lineOf(server, /^(http:\/\/\S+\/)$/m);
   return { server, url };

@@ -111,3 +111,52 @@ fn a_control_token_must_be_long_enough_to_guess_hard() -> Result<()> {
     }
     Ok(())
 }
+
+#[test]
+fn serve_refuses_an_open_network_unless_asked_and_tls_without_a_roster() -> Result<()> {
+    let (cfg, _) = serve_config(&serve_args(&["serve"]))?;
+    let err = cfg
+        .check_security()
+        .expect_err("open by default is refused");
+    assert!(err.to_string().contains("--open"), "{err}");
+    let (cfg, _) = serve_config(&serve_args(&["serve", "--open"]))?;
+    cfg.check_security()?;
+    assert!(Cli::try_parse_from(["fusion-server", "serve", "--open", "--tls", "k"]).is_err());
+
+    let dir = tempfile::tempdir()?;
+    for f in ["ca.pem", "cert.pem", "key.pem"] {
+        std::fs::write(dir.path().join(f), "-")?;
+    }
+    let tls = dir.path().to_string_lossy().into_owned();
+    let (cfg, _) = serve_config(&serve_args(&["serve", "--tls", &tls]))?;
+    // The default endpoint becomes TLS.
+    assert_eq!(cfg.net.listen, ["tls/127.0.0.1:7447"]);
+    let err = cfg.check_security().expect_err("no roster");
+    assert!(err.to_string().contains("roster"), "{err}");
+    let (cfg, _) = serve_config(&serve_args(&[
+        "serve",
+        "--tls",
+        &tls,
+        "--roster",
+        "miro1",
+        "--servers",
+        "b",
+        "--routers",
+        "r1",
+    ]))?;
+    cfg.check_security()?;
+    assert_eq!(
+        (cfg.servers.as_slice(), cfg.routers.as_slice()),
+        (&["b".to_string()][..], &["r1".to_string()][..])
+    );
+    // A plain endpoint next to certificates is refused.
+    let plain = serve_config(&serve_args(&[
+        "serve",
+        "--tls",
+        &tls,
+        "--listen",
+        "tcp/127.0.0.1:7447",
+    ]));
+    assert!(plain.is_err());
+    Ok(())
+}

@@ -47,9 +47,23 @@ pub struct ServeArgs {
     /// Also publish a state right after new observations (lowest latency).
     #[arg(long)]
     pub on_update: bool,
-    /// Only accept these robots (comma-separated ids).
+    /// Only accept these robots (comma-separated ids). With --tls, only these may join.
     #[arg(long, value_delimiter = ',')]
     pub roster: Vec<String>,
+    /// TLS with mutual authentication and an access-control list from the roster: DIR
+    /// holds this server's ca.pem, cert.pem and key.pem (`fusion-server keys` writes it).
+    /// Endpoints must be tls/… (default tls/127.0.0.1:7447).
+    #[arg(long, value_name = "DIR")]
+    pub tls: Option<PathBuf>,
+    /// With --tls: other servers (standby) to trust, comma-separated ids.
+    #[arg(long, value_delimiter = ',')]
+    pub servers: Vec<String>,
+    /// With --tls: zenohd routers to trust, comma-separated ids.
+    #[arg(long, value_delimiter = ',')]
+    pub routers: Vec<String>,
+    /// Serve without TLS, where anyone reaching the endpoints may publish (a lab network).
+    #[arg(long, conflicts_with = "tls")]
+    pub open: bool,
     /// Record every observation, status and published state as MCAP match logs in DIR.
     #[arg(long, value_name = "DIR")]
     pub record: Option<PathBuf>,
@@ -97,13 +111,23 @@ impl ServeArgs {
         if !self.roster.is_empty() {
             s.roster = Some(self.roster.clone());
         }
+        if !self.servers.is_empty() {
+            s.servers = Some(self.servers.clone());
+        }
+        if !self.routers.is_empty() {
+            s.routers = Some(self.routers.clone());
+        }
+        if self.open {
+            s.open = Some(true);
+        }
         set(&mut s.record.dir, &self.record);
         set(&mut s.record.max_mb, &self.record_max_mb);
         set(&mut s.record.max_minutes, &self.record_max_min);
         let net_flags = !self.listen.is_empty()
             || !self.connect.is_empty()
             || self.mode.is_some()
-            || self.scouting;
+            || self.scouting
+            || self.tls.is_some();
         if net_flags {
             let mut z = s
                 .zenoh
@@ -125,6 +149,13 @@ impl ServeArgs {
             if self.scouting {
                 z.multicast_scouting = true;
                 z.gossip_scouting = true;
+            }
+            if let Some(dir) = &self.tls {
+                z.tls = Some(proto::net::TlsFiles::in_dir(dir));
+                // The default endpoint, secured.
+                if self.listen.is_empty() && z.listen == ServeConfig::default().net.listen {
+                    z.listen = vec!["tls/127.0.0.1:7447".into()];
+                }
             }
             s.zenoh = Some(z);
         }

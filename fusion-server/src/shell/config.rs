@@ -183,6 +183,12 @@ pub struct Settings {
     pub robot_speed_mps: Option<f64>,
     /// Accept only these robots.
     pub roster: Option<Vec<String>>,
+    /// Other servers (standby) the access-control list trusts, when links are TLS.
+    pub servers: Option<Vec<String>>,
+    /// `zenohd` routers the access-control list trusts, when links are TLS.
+    pub routers: Option<Vec<String>>,
+    /// Serve an open network (no TLS) knowingly.
+    pub open: Option<bool>,
     pub zenoh: Option<NetConfig>,
     pub pitch: Option<Pitch>,
     pub fusion: FusionFile,
@@ -253,6 +259,22 @@ impl Settings {
                 )));
             }
             cfg.engine.roster = Some(r.iter().cloned().collect());
+        }
+        for (name, list, dest) in [
+            ("servers", &self.servers, &mut cfg.servers),
+            ("routers", &self.routers, &mut cfg.routers),
+        ] {
+            if let Some(ids) = list {
+                if let Some(bad) = ids.iter().find(|id| !proto::is_valid_id(id)) {
+                    return Err(ConfigError::Invalid(format!(
+                        "{name} id {bad:?} is not a valid id"
+                    )));
+                }
+                dest.clone_from(ids);
+            }
+        }
+        if let Some(b) = self.open {
+            cfg.open = b;
         }
         if let Some(z) = &self.zenoh {
             z.check().map_err(|e| ConfigError::Invalid(e.to_string()))?;

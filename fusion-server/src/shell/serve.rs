@@ -36,6 +36,13 @@ pub struct ServeConfig {
     pub control_token: Option<String>,
     /// Connection cap and deadlines of the HTTP side.
     pub http_limits: HttpLimits,
+    /// Other servers (standby) the access-control list trusts, when links are TLS.
+    pub servers: Vec<String>,
+    /// `zenohd` routers the access-control list trusts, when links are TLS.
+    pub routers: Vec<String>,
+    /// Serve an open network (plain TCP, anyone may publish) knowingly: `serve` refuses
+    /// to start without TLS otherwise.
+    pub open: bool,
 }
 
 impl Default for ServeConfig {
@@ -51,7 +58,54 @@ impl Default for ServeConfig {
             engine: EngineConfig::default(),
             control_token: None,
             http_limits: HttpLimits::default(),
+            servers: Vec::new(),
+            routers: Vec::new(),
+            open: false,
         }
+    }
+}
+
+impl ServeConfig {
+    /// Refuses an open network unless asked for one (`--open`), and a secured one without
+    /// a roster (the access-control list admits robots by name).
+    pub fn check_security(&self) -> Result<()> {
+        if self.net.is_secured() {
+            anyhow::ensure!(
+                self.engine.roster.is_some(),
+                "TLS needs a roster (--roster ID,ID or `roster = [...]`): the access-control \
+                 list admits robots by the name in their certificate"
+            );
+        } else {
+            anyhow::ensure!(
+                self.open,
+                "no TLS: anyone who reaches the Zenoh endpoints could publish a ball. Give the \
+                 certificates `fusion-server keys` made (--tls DIR, with --roster), or --open \
+                 for an open lab network (docs/operations.md, \"Deploy on several machines \
+                 securely\")"
+            );
+        }
+        Ok(())
+    }
+
+    /// The Zenoh session: the links of `net` and, when they are TLS, the access-control
+    /// list generated from the roster, the trusted servers (this one included) and routers.
+    pub async fn open_session(&self) -> Result<zenoh::Session> {
+        let mut z = self.net.zenoh_config()?;
+        if self.net.is_secured() {
+            let robots: Vec<String> = self.engine.roster.iter().flatten().cloned().collect();
+            let mut servers = self.servers.clone();
+            servers.push(self.server_id.clone());
+            let roster = crate::security::acl::Roster {
+                prefix: &self.prefix,
+                robots: &robots,
+                servers: &servers,
+                routers: &self.routers,
+            };
+            crate::security::acl::install(&mut z, &roster).map_err(anyhow::Error::msg)?;
+        }
+        zenoh::open(z)
+            .await
+            .map_err(|e| anyhow::anyhow!("opening the Zenoh session: {e}"))
     }
 }
 
@@ -140,7 +194,7 @@ pub async fn serve(
         "state rate must be positive, got {}",
         cfg.state_rate_hz
     );
-    let session = cfg.net.open().await.context("opening the Zenoh session")?;
+    let session = cfg.open_session().await?;
     let keys = live.keys.clone();
 
     let intake = Intake::start(live.clone()).context("starting the intake thread")?;

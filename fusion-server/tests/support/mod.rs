@@ -22,7 +22,11 @@ impl Proc {
     pub fn spawn(args: &[&str]) -> Proc {
         let mut child = Command::new(BIN)
             .args(args)
-            .env("RUST_LOG", "warn,zenoh=error")
+            // RF_TEST_SERVER_LOG overrides the server's log filter when debugging a test.
+            .env(
+                "RUST_LOG",
+                std::env::var("RF_TEST_SERVER_LOG").unwrap_or("warn,zenoh=error".into()),
+            )
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
@@ -79,7 +83,14 @@ impl Drop for Proc {
 pub fn start_server(extra: &[&str]) -> (Proc, String, String) {
     let port = fusion_server::shell::net::free_loopback_port().expect("free port");
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let mut args = vec!["serve", "--listen", &endpoint, "--http", "127.0.0.1:0"];
+    let mut args = vec![
+        "serve",
+        "--open",
+        "--listen",
+        &endpoint,
+        "--http",
+        "127.0.0.1:0",
+    ];
     args.extend_from_slice(extra);
     let p = Proc::spawn(&args);
     let url = p.line_starting("http://", Duration::from_secs(30));

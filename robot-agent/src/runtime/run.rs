@@ -52,6 +52,10 @@ pub struct RunArgs {
     /// Zenoh mode: peer, client or router.
     #[arg(long, default_value = "peer")]
     pub mode: String,
+    /// TLS with mutual authentication: DIR holds this robot's ca.pem, cert.pem and key.pem
+    /// (`fusion-server keys` writes it). Endpoints must then be tls/HOST:PORT.
+    #[arg(long, value_name = "DIR")]
+    pub tls: Option<PathBuf>,
     /// Key prefix.
     #[arg(long, default_value = proto::DEFAULT_PREFIX)]
     pub prefix: String,
@@ -147,6 +151,7 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
         mode: args.mode.clone(),
         listen: args.listen.clone(),
         connect: args.connect.clone(),
+        tls: args.tls.as_deref().map(proto::net::TlsFiles::in_dir),
         ..NetConfig::default()
     };
     // A live source needs the session even offline (to subscribe, not to publish).

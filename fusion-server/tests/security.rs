@@ -1,0 +1,314 @@
+//! A secured network on real processes: `fusion-server keys` makes the certificates, a
+//! `fusion-server serve --tls` process fuses, and Zenoh sessions over loopback TLS play an
+//! honest robot and three impostors, straight to the server and through a router (a
+//! router-mode session loading the `zenohd.json5` that `keys` wrote, as `zenohd` would).
+//!
+//! - an impostor with no certificate (plain TCP) and one whose certificate another
+//!   authority signed never get a link;
+//! - a genuine robot (miro2) that publishes as miro1, forges ball states and answers
+//!   predictions is stopped by the access-control list: the server receives none of it,
+//!   and the honest robot sees no forged state or answer;
+//! - the honest robot's observations arrive, every one, and it receives the ball.
+
+mod support;
+
+use fusion_server::shell::live::{Clock, SystemClock};
+use proto::net::{NetConfig, TlsFiles, free_loopback_port};
+use std::path::Path;
+use std::process::Command;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use support::{BIN, Proc, get_json, http_get, wait_for};
+
+const HONEST: [f64; 2] = [0.8, -0.3];
+const FORGED: [f64; 2] = [-0.9, 0.5];
+const MARK: &str = "FORGED-BY-IMPOSTOR";
+
+fn keys(out: &Path, args: &[&str]) {
+    let o = Command::new(BIN)
+        .arg("keys")
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .expect("runs fusion-server keys");
+    assert!(
+        o.status.success(),
+        "keys: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn metric(addr: &str, name: &str) -> f64 {
+    let (code, body) = http_get(addr, "/metrics").expect("GET /metrics");
+    assert_eq!(code, 200);
+    body.lines()
+        .find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.parse().ok())
+        .unwrap_or_else(|| panic!("no {name} in /metrics"))
+}
+
+/// A session joining at `endpoint` as `mode` (peer, or client of a router).
+async fn session(endpoint: &str, tls: Option<&Path>, mode: &str) -> zenoh::Session {
+    NetConfig {
+        mode: mode.into(),
+        connect: vec![endpoint.to_string()],
+        tls: tls.map(TlsFiles::in_dir),
+        ..NetConfig::default()
+    }
+    .open()
+    .await
+    .expect("session opens (links come up, or not, in the background)")
+}
+
+fn obs(robot: &str, seq: u64, at: [f64; 2]) -> Vec<u8> {
+    let o = proto::test_support::observation(robot, seq, SystemClock.now(), at);
+    proto::encode(&o)
+}
+
+async fn put(p: &zenoh::pubsub::Publisher<'_>, payload: Vec<u8>) {
+    p.put(payload).await.expect("put");
+}
+
+async fn publisher(s: &zenoh::Session, key: &str) -> zenoh::pubsub::Publisher<'static> {
+    s.declare_publisher(key.to_string())
+        .congestion_control(zenoh::qos::CongestionControl::Block)
+        .await
+        .expect("publisher")
+}
+
+/// The scenario: the server's HTTP at `addr`, robots and impostors joining at `endpoint`
+/// (the server's, or a router's) as `mode`, certificates in `dir` and a foreign
+/// authority's in `foreign`.
+async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Path, foreign: &Path) {
+    let plain_endpoint = endpoint.replacen("tls/", "tcp/", 1);
+    let honest = session(endpoint, Some(&dir.join("robot-miro1")), mode).await;
+    let genuine_other = session(endpoint, Some(&dir.join("robot-miro2")), mode).await;
+    // Peers, so that opening does not fail when the link is refused.
+    let foreign_ca = session(endpoint, Some(&foreign.join("robot-miro1")), "peer").await;
+    let plain = session(&plain_endpoint, None, "peer").await;
+
+    // What the honest robot receives on the ball.
+    let states: Arc<Mutex<Vec<Vec<u8>>>> = Arc::default();
+    let s = states.clone();
+    let _sub = honest
+        .declare_subscriber("rf/ball/state")
+        .callback(move |sample| {
+            if let Ok(mut v) = s.lock() {
+                v.push(sample.payload().to_bytes().to_vec());
+            }
+        })
+        .await
+        .expect("subscriber");
+    let _token = honest
+        .liveliness()
+        .declare_token("rf/robots/miro1")
+        .await
+        .expect("token");
+    let own = publisher(&honest, "rf/robots/miro1/obs").await;
+
+    // The honest robot's observations until the server's ball comes back to it.
+    let (mut honest_sent, mut seq) = (0u64, 0u64);
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+    while states.lock().map(|v| v.is_empty()).unwrap_or(true) {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "no ball state reached the honest robot ({} of {honest_sent} observations reached \
+             the server)",
+            metric(addr, "rf_inputs_received_total")
+        );
+        put(&own, obs("miro1", seq, HONEST)).await;
+        (honest_sent, seq) = (honest_sent + 1, seq + 1);
+        tokio::time::sleep(Duration::from_millis(30)).await;
+    }
+
+    // Those sent before the link was up are lost: count from here.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let before = metric(addr, "rf_inputs_received_total");
+    let accepted_before = metric(addr, "rf_observations_accepted_total");
+    honest_sent = 0;
+
+    // The impostors: publish as miro1, forge the ball, answer predictions.
+    let forged_queries = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let fq = forged_queries.clone();
+    let _fake_predict = genuine_other
+        .declare_queryable("rf/ball/predict")
+        .callback(move |q| {
+            fq.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let _ = zenoh::Wait::wait(q.reply("rf/ball/predict", MARK));
+        })
+        .await
+        .expect("queryable (declared; the access list keeps it from the others)");
+    let mut impostor_puts = 0u64;
+    let mut legit_other = 0u64;
+    for (i, s) in [&genuine_other, &foreign_ca, &plain]
+        .into_iter()
+        .enumerate()
+    {
+        let as_miro1 = publisher(s, "rf/robots/miro1/obs").await;
+        let ball = publisher(s, "rf/ball/state").await;
+        let status = publisher(s, "rf/robots/miro1/status").await;
+        for k in 0..40 {
+            put(&as_miro1, obs("miro1", 10_000 + k, FORGED)).await;
+            put(&ball, format!("{{\"mark\":\"{MARK}\"}}").into_bytes()).await;
+            put(&status, MARK.as_bytes().to_vec()).await;
+            impostor_puts += 3;
+        }
+        if i == 0 {
+            // miro2 may still speak for itself.
+            let mine = publisher(s, "rf/robots/miro2/obs").await;
+            for k in 0..20 {
+                put(&mine, obs("miro2", k, HONEST)).await;
+                legit_other += 1;
+            }
+        }
+    }
+
+    // The honest robot asks for a prediction: only the server answers.
+    let replies = honest
+        .get("rf/ball/predict?t=0.5")
+        .timeout(Duration::from_secs(5))
+        .await
+        .expect("query");
+    let mut answers = Vec::new();
+    while let Ok(r) = replies.recv_async().await {
+        if let Ok(s) = r.result() {
+            answers.push(s.payload().to_bytes().to_vec());
+        }
+    }
+    assert!(!answers.is_empty(), "the server answers the prediction");
+    for a in &answers {
+        assert!(
+            !String::from_utf8_lossy(a).contains(MARK),
+            "a forged answer reached the robot"
+        );
+        proto::decode::<proto::Prediction>(a).expect("the server's prediction");
+    }
+    assert_eq!(
+        forged_queries.load(std::sync::atomic::Ordering::Relaxed),
+        0,
+        "the honest robot's query reached the impostor's queryable"
+    );
+
+    // More honest observations after the attack; all of them, and nothing else, arrive.
+    for _ in 0..30 {
+        put(&own, obs("miro1", seq, HONEST)).await;
+        (honest_sent, seq) = (honest_sent + 1, seq + 1);
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    let expected = (honest_sent + legit_other) as f64;
+    wait_for("every honest observation", Duration::from_secs(15), || {
+        (metric(addr, "rf_inputs_received_total") - before >= expected).then_some(())
+    });
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let received = metric(addr, "rf_inputs_received_total") - before;
+    println!(
+        "after the links were up: sent {honest_sent} honest + {legit_other} of miro2's own, \
+         {impostor_puts} by impostors; the server received {received}"
+    );
+    assert_eq!(
+        received, expected,
+        "only the honest inputs reached the server"
+    );
+    assert_eq!(
+        metric(addr, "rf_observations_accepted_total") - accepted_before,
+        expected
+    );
+
+    // The server's ball is the honest one, and so is every state the robot got.
+    let state = get_json(addr, "/api/state");
+    let x = state["ball"]["position_m"][0].as_f64().unwrap_or(f64::NAN);
+    assert!((x - HONEST[0]).abs() < 0.1, "server's ball: {state}");
+    let got = states.lock().map(|v| v.clone()).unwrap_or_default();
+    assert!(!got.is_empty());
+    for payload in &got {
+        assert!(
+            !String::from_utf8_lossy(payload).contains(MARK),
+            "a forged state reached the honest robot"
+        );
+        let s: proto::BallState = proto::decode(payload).expect("the server's state");
+        assert!(
+            (s.position_m[0] - FORGED[0]).abs() > 0.5,
+            "{:?}",
+            s.position_m
+        );
+    }
+    for s in [honest, genuine_other, foreign_ca, plain] {
+        let _ = s.close().await;
+    }
+}
+
+fn start_server(dir: &Path, extra: &[&str]) -> (Proc, String, String) {
+    let port = free_loopback_port().expect("free port");
+    let endpoint = format!("tls/127.0.0.1:{port}");
+    let tls = dir.join("server-main").to_string_lossy().into_owned();
+    let mut args = vec![
+        "serve",
+        "--id",
+        "main",
+        "--tls",
+        &tls,
+        "--roster",
+        "miro1,miro2",
+        "--listen",
+        &endpoint,
+        "--http",
+        "127.0.0.1:0",
+    ];
+    args.extend_from_slice(extra);
+    let p = Proc::spawn(&args);
+    let url = p.line_starting("http://", Duration::from_secs(30));
+    let addr = url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_string();
+    (p, endpoint, addr)
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn impostors_never_reach_a_secured_server_or_its_robots() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let (dir, foreign) = (tmp.path().join("keys"), tmp.path().join("foreign"));
+    keys(&dir, &["--robots", "miro1,miro2", "--servers", "main"]);
+    keys(&foreign, &["--robots", "miro1"]);
+    // Without certificates, or a roster, or --open, serve refuses to start.
+    let o = Command::new(BIN)
+        .args(["serve", "--http", "127.0.0.1:0"])
+        .output()
+        .expect("runs");
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--open"));
+
+    let (_server, endpoint, addr) = start_server(&dir, &[]);
+    impostors_are_refused(&addr, &endpoint, "peer", &dir, &foreign).await;
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn impostors_never_get_through_a_router_with_the_generated_configuration() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let (dir, foreign) = (tmp.path().join("keys"), tmp.path().join("foreign"));
+    let router_endpoint = format!("tls/127.0.0.1:{}", free_loopback_port().expect("port"));
+    keys(
+        &dir,
+        &[
+            "--robots",
+            "miro1,miro2",
+            "--servers",
+            "main",
+            "--routers",
+            "r1",
+            "--router-listen",
+            &router_endpoint,
+        ],
+    );
+    keys(&foreign, &["--robots", "miro1"]);
+    let config = zenoh::Config::from_file(dir.join("router-r1/zenohd.json5"))
+        .expect("zenohd.json5 loads as a Zenoh configuration");
+    let router = zenoh::open(config).await.expect("router starts");
+
+    // The server joins the router as a peer, trusting it; robots are the router's clients
+    // (two peers that only meet through a router, with gossip off, never hear each other).
+    let (_server, _own_endpoint, addr) =
+        start_server(&dir, &["--connect", &router_endpoint, "--routers", "r1"]);
+    impostors_are_refused(&addr, &router_endpoint, "client", &dir, &foreign).await;
+    let _ = router.close().await;
+}
