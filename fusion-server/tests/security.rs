@@ -1,7 +1,8 @@
 //! A secured network on real processes: `fusion-server keys` makes the certificates, a
 //! `fusion-server serve --tls` process fuses, and Zenoh sessions over loopback TLS play an
-//! honest robot and three impostors, straight to the server and through a router (a
-//! router-mode session loading the `zenohd.json5` that `keys` wrote, as `zenohd` would).
+//! honest robot and three impostors, straight to the server and through a router: a
+//! router-mode session loading the `zenohd.json5` that `keys` wrote, as `zenohd` does, or,
+//! with `RF_ZENOHD=/path/to/zenohd`, the real `zenohd` process.
 //!
 //! - an impostor with no certificate (plain TCP) and one whose certificate another
 //!   authority signed never get a link;
@@ -301,14 +302,110 @@ async fn impostors_never_get_through_a_router_with_the_generated_configuration()
         ],
     );
     keys(&foreign, &["--robots", "miro1"]);
-    let config = zenoh::Config::from_file(dir.join("router-r1/zenohd.json5"))
-        .expect("zenohd.json5 loads as a Zenoh configuration");
-    let router = zenoh::open(config).await.expect("router starts");
+    let config_file = dir.join("router-r1/zenohd.json5");
+    let router = Router::start(&config_file, &router_endpoint).await;
 
     // The server joins the router as a peer, trusting it; robots are the router's clients
     // (two peers that only meet through a router, with gossip off, never hear each other).
     let (_server, _own_endpoint, addr) =
         start_server(&dir, &["--connect", &router_endpoint, "--routers", "r1"]);
     impostors_are_refused(&addr, &router_endpoint, "client", &dir, &foreign).await;
-    let _ = router.close().await;
+    router.stop().await;
+}
+
+/// The router: `zenohd` itself when `RF_ZENOHD` names it, else a router-mode session.
+enum Router {
+    Zenohd(std::process::Child),
+    InProcess(zenoh::Session),
+}
+
+impl Router {
+    async fn start(config_file: &Path, endpoint: &str) -> Router {
+        match std::env::var_os("RF_ZENOHD") {
+            Some(bin) => {
+                let child = Command::new(bin)
+                    .arg("--config")
+                    .arg(config_file)
+                    .stdout(std::process::Stdio::null())
+                    .spawn()
+                    .expect("RF_ZENOHD runs");
+                println!("router: zenohd process {}", child.id());
+                let router = Router::Zenohd(child);
+                let addr = endpoint.trim_start_matches("tls/").to_string();
+                wait_for("zenohd listening", Duration::from_secs(20), || {
+                    std::net::TcpStream::connect(&addr).ok()
+                });
+                router
+            }
+            None => {
+                let config = zenoh::Config::from_file(config_file)
+                    .expect("zenohd.json5 loads as a Zenoh configuration");
+                Router::InProcess(zenoh::open(config).await.expect("router starts"))
+            }
+        }
+    }
+
+    async fn stop(self) {
+        if let Router::InProcess(s) = &self {
+            let _ = s.close().await;
+        }
+    }
+}
+
+impl Drop for Router {
+    fn drop(&mut self) {
+        if let Router::Zenohd(c) = self {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// Which Zenoh modes hear each other through a `zenohd` router, on plain TCP: two peers
+/// that meet only at the router (gossip off) do not; a client with anything does. Needs
+/// `RF_ZENOHD=/path/to/zenohd`.
+#[tokio::test(flavor = "multi_thread")]
+#[ignore = "needs zenohd: RF_ZENOHD=/path/to/zenohd cargo test -p fusion-server --test security -- --ignored"]
+async fn which_modes_meet_through_zenohd() {
+    let bin = std::env::var_os("RF_ZENOHD").expect("RF_ZENOHD names the zenohd binary");
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port().expect("port"));
+    let mut router = Command::new(bin)
+        .args(["--listen", &endpoint, "--no-multicast-scouting"])
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .expect("zenohd runs");
+    tokio::time::sleep(Duration::from_millis(800)).await;
+    let mut heard = Vec::new();
+    for (from, to) in [
+        ("peer", "peer"),
+        ("client", "peer"),
+        ("peer", "client"),
+        ("client", "client"),
+    ] {
+        let sub_session = session(&endpoint, None, to).await;
+        let pub_session = session(&endpoint, None, from).await;
+        let key = format!("modes/{from}/{to}");
+        let sub = sub_session
+            .declare_subscriber(key.clone())
+            .await
+            .expect("sub");
+        let p = publisher(&pub_session, &key).await;
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        for k in 0..20u8 {
+            put(&p, vec![k]).await;
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let mut n = 0;
+        while let Ok(Some(_)) = sub.try_recv() {
+            n += 1;
+        }
+        println!("{from} publishes, {to} subscribes, through zenohd: {n} of 20");
+        heard.push(n);
+        let _ = pub_session.close().await;
+        let _ = sub_session.close().await;
+    }
+    let _ = router.kill();
+    let _ = router.wait();
+    assert_eq!(heard, [0, 20, 20, 20]);
 }
