@@ -187,11 +187,19 @@ impl NetConfig {
             set(&mut c, &format!("{tls}/root_ca_certificate"), path(&t.ca)?)?;
             set(&mut c, &format!("{tls}/listen_certificate"), path(&t.cert)?)?;
             set(&mut c, &format!("{tls}/listen_private_key"), path(&t.key)?)?;
-            set(&mut c, &format!("{tls}/connect_certificate"), path(&t.cert)?)?;
+            set(
+                &mut c,
+                &format!("{tls}/connect_certificate"),
+                path(&t.cert)?,
+            )?;
             set(&mut c, &format!("{tls}/connect_private_key"), path(&t.key)?)?;
             // Both ends prove themselves, and the one connecting checks the other's name.
             set(&mut c, &format!("{tls}/enable_mtls"), "true".into())?;
-            set(&mut c, &format!("{tls}/verify_name_on_connect"), "true".into())?;
+            set(
+                &mut c,
+                &format!("{tls}/verify_name_on_connect"),
+                "true".into(),
+            )?;
         }
         Ok(c)
     }

@@ -112,7 +112,14 @@ impl ServerProcess {
     pub fn start(bin: &Path) -> Result<ServerProcess> {
         let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
         let mut child = Command::new(bin)
-            .args(["serve", "--open", "--listen", &endpoint, "--http", "127.0.0.1:0"])
+            .args([
+                "serve",
+                "--open",
+                "--listen",
+                &endpoint,
+                "--http",
+                "127.0.0.1:0",
+            ])
             .env("RUST_LOG", "warn,zenoh=error")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())

@@ -109,7 +109,14 @@ impl Drop for Proc {
 pub fn start_server(extra: &[&str]) -> (Proc, String, String) {
     let port = fusion_server::shell::net::free_loopback_port().expect("free port");
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let mut args = vec!["serve", "--open", "--listen", &endpoint, "--http", "127.0.0.1:0"];
+    let mut args = vec![
+        "serve",
+        "--open",
+        "--listen",
+        &endpoint,
+        "--http",
+        "127.0.0.1:0",
+    ];
     args.extend_from_slice(extra);
     let p = Proc::spawn(&args);
     let url = p.line_starting("http://", Duration::from_secs(30));
