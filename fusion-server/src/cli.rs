@@ -87,6 +87,12 @@ async fn serve_cmd(a: ServeArgs) -> Result<()> {
     let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
     println!("http://{}/", http.local_addr()?);
     println!("zenoh {}", cfg.net.listen.join(" "));
+    if !cfg.net.connect.is_empty() {
+        println!("zenoh connects to {}", cfg.net.connect.join(" "));
+    }
+    if cfg.net.is_secured() {
+        println!("zenoh TLS with mutual authentication; access control from the roster");
+    }
     let served = serve::serve(cfg, live, http, shutdown_signal()).await;
     finish_log(log)?;
     served

@@ -20,8 +20,8 @@ pub enum NetError {
     #[error("zenoh: {0}")]
     Zenoh(String),
     #[error(
-        "zenoh endpoint {0:?} is not TLS: with certificates every endpoint must be tls/HOST:PORT, \
-         or peers could join without one"
+        "zenoh endpoint {0:?} is not TLS: with certificates every endpoint off this machine must \
+         be tls/HOST:PORT, or peers could join without one"
     )]
     PlainEndpoint(String),
     #[error("zenoh endpoint {0:?} is TLS but no certificates are given (--tls DIR)")]
@@ -111,6 +111,20 @@ fn check_endpoint(e: &str) -> Result<(), NetError> {
     Ok(())
 }
 
+/// Whether `endpoint`'s host is this machine only (127.0.0.0/8, ::1 or localhost).
+fn is_loopback(endpoint: &str) -> bool {
+    let host = endpoint
+        .split_once('/')
+        .map(|(_, rest)| rest.split(['?', '#']).next().unwrap_or_default())
+        .and_then(|addr| addr.rsplit_once(':'))
+        .map(|(host, _)| host.trim_start_matches('[').trim_end_matches(']'))
+        .unwrap_or_default();
+    host == "localhost"
+        || host
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
+}
+
 impl NetConfig {
     /// Only listens on `endpoint`.
     pub fn listening(endpoint: &str) -> Self {
@@ -136,7 +150,10 @@ impl NetConfig {
             check_endpoint(e)?;
             let is_tls = e.starts_with("tls/");
             match &self.tls {
-                Some(_) if !is_tls => return Err(NetError::PlainEndpoint(e.clone())),
+                // A loopback link stays on this machine (a ROS bridge beside the agent).
+                Some(_) if !is_tls && !is_loopback(e) => {
+                    return Err(NetError::PlainEndpoint(e.clone()));
+                }
                 None if is_tls => return Err(NetError::NoCertificates(e.clone())),
                 _ => {}
             }
@@ -261,11 +278,24 @@ mod tests {
             tls: Some(files.clone()),
             ..NetConfig::listening(e)
         };
-        // A plain endpoint next to certificates would let peers in without one.
-        assert!(matches!(
-            secured("tcp/127.0.0.1:7447").check(),
-            Err(NetError::PlainEndpoint(_))
-        ));
+        // A plain endpoint next to certificates would let peers in without one, unless it
+        // is a loopback one (nothing off this machine reaches it).
+        for plain in [
+            "tcp/0.0.0.0:7447",
+            "tcp/192.168.1.4:7447",
+            "tcp/pitch.local:7447",
+        ] {
+            assert!(
+                matches!(secured(plain).check(), Err(NetError::PlainEndpoint(_))),
+                "{plain}"
+            );
+        }
+        for local in ["tcp/127.0.0.1:7448", "tcp/localhost:7448", "tcp/[::1]:7448"] {
+            assert!(
+                !matches!(secured(local).check(), Err(NetError::PlainEndpoint(_))),
+                "{local}"
+            );
+        }
         assert!(matches!(
             NetConfig::connecting("tls/127.0.0.1:7447").check(),
             Err(NetError::NoCertificates(_))

@@ -29,6 +29,9 @@ pub struct SimRobotsConfig {
     pub status_rate_hz: f64,
     pub prefix: String,
     pub net: NetConfig,
+    /// A secured network's keys folder (`fusion-server keys`): robot `{id}` joins with
+    /// the certificate in `robot-{id}`.
+    pub keys: Option<std::path::PathBuf>,
 }
 
 /// Runs the match at `start` on the MiRo pitch (deterministic: every process computes the
@@ -222,11 +225,16 @@ pub async fn run_on(
     let ids = chosen_robots(&first, &cfg.robots)?;
     let mut sessions = Vec::new();
     for id in &ids {
-        let session = cfg
-            .net
+        let mut net = cfg.net.clone();
+        if let Some(keys) = &cfg.keys {
+            net.tls = Some(proto::net::TlsFiles::in_dir(
+                &keys.join(format!("robot-{id}")),
+            ));
+        }
+        let session = net
             .open()
             .await
-            .context("opening a robot's Zenoh session")?;
+            .with_context(|| format!("opening robot {id}'s Zenoh session"))?;
         let token = session
             .liveliness()
             .declare_token(keys.robot_liveliness(id)?)

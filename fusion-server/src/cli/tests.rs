@@ -155,7 +155,7 @@ fn serve_refuses_an_open_network_unless_asked_and_tls_without_a_roster() -> Resu
         "--tls",
         &tls,
         "--listen",
-        "tcp/127.0.0.1:7447",
+        "tcp/0.0.0.0:7447",
     ]));
     assert!(plain.is_err());
     Ok(())

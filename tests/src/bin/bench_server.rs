@@ -498,6 +498,7 @@ async fn memory(robots: usize, seconds: f64) -> Result<Memory> {
         status_rate_hz: 5.0,
         prefix: proto::DEFAULT_PREFIX.into(),
         net: NetConfig::connecting(&endpoint),
+        keys: None,
     };
     let cpu0 = proc_cpu_s(pid).unwrap_or(0.0);
     let (_stop_tx, stop_rx) = tokio::sync::watch::channel(false);

@@ -170,6 +170,7 @@ async fn run(a: DemoArgs) -> Result<()> {
                 status_rate_hz: 5.0,
                 prefix: cfg.prefix.clone(),
                 net: NetConfig::connecting(&endpoint),
+                keys: None,
             };
             println!(
                 "Demo running: simulated MiRos playing `{}` publish modelled observations over Zenoh at {endpoint}.",

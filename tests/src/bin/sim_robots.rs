@@ -17,6 +17,13 @@ struct Args {
     /// Zenoh endpoint of the server (or a router).
     #[arg(long, required = true)]
     connect: Vec<String>,
+    /// Zenoh mode: peer, or client (through a zenohd router).
+    #[arg(long, default_value = "peer")]
+    mode: String,
+    /// A secured network's keys folder (`fusion-server keys`): robot {id} joins with the
+    /// certificate in DIR/robot-{id}, over tls/ endpoints.
+    #[arg(long, value_name = "DIR")]
+    keys: Option<std::path::PathBuf>,
     #[command(flatten)]
     sim: MatchArgs,
     /// Play only these robots (comma-separated ids); default every observer.
@@ -54,9 +61,11 @@ async fn run(a: Args) -> Result<()> {
         status_rate_hz: 5.0,
         prefix: a.prefix,
         net: NetConfig {
+            mode: a.mode,
             connect: a.connect,
             ..NetConfig::default()
         },
+        keys: a.keys,
     };
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     tokio::spawn(async move {
