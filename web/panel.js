@@ -56,6 +56,12 @@ export function showRobots(robots, ids) {
     cell(tr, r.covariance_scale == null ? "–" : (1 / r.covariance_scale).toFixed(2));
     cell(tr, r.latency_s == null ? "–" : `${(1000 * r.latency_s).toFixed(0)} ms`);
     cell(tr, r.outlier_rate == null ? "–" : `${(100 * r.outlier_rate).toFixed(0)} %`);
+    // Clock: the server's estimate of server minus robot clock (positive: the robot is behind).
+    const clock = cell(tr, r.clock_offset_s == null ? "–" : `${r.clock_offset_s >= 0 ? "+" : ""}${(1000 * r.clock_offset_s).toFixed(0)} ms`);
+    if (r.clock_suspect) {
+      clock.className = "suspect";
+      clock.title = "this robot's clock is off: its sightings are placed at the wrong time (synchronise it, e.g. with NTP)";
+    }
     return tr;
   });
   body.replaceChildren(...rows);

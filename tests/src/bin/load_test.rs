@@ -93,6 +93,9 @@ fn run(args: Args) -> Result<()> {
             args.robots_per_session
         ));
     }
+    if args.block {
+        command.push_str(" --block");
+    }
     if let Some(p) = &args.doc {
         command.push_str(&format!(" --doc {}", p.display()));
     }
