@@ -19,7 +19,7 @@ use std::path::Path;
 use std::process::Command;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use support::{BIN, Proc, get_json, http_get, wait_for};
+use support::{BIN, Proc, get_json, http_get, spawn_serving, wait_for};
 
 const HONEST: [f64; 2] = [0.8, -0.3];
 const FORGED: [f64; 2] = [-0.9, 0.5];
@@ -256,12 +256,7 @@ fn start_server(dir: &Path, extra: &[&str]) -> (Proc, String, String) {
         "127.0.0.1:0",
     ];
     args.extend_from_slice(extra);
-    let p = Proc::spawn(&args);
-    let url = p.line_starting("http://", Duration::from_secs(30));
-    let addr = url
-        .trim_start_matches("http://")
-        .trim_end_matches('/')
-        .to_string();
+    let (p, addr) = spawn_serving(&args);
     (p, endpoint, addr)
 }
 

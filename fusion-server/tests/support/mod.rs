@@ -92,13 +92,20 @@ pub fn start_server(extra: &[&str]) -> (Proc, String, String) {
         "127.0.0.1:0",
     ];
     args.extend_from_slice(extra);
-    let p = Proc::spawn(&args);
+    let (p, addr) = spawn_serving(&args);
+    (p, endpoint, addr)
+}
+
+/// Runs `fusion-server` with `args`, a serving command, and waits for the HTTP address
+/// it prints: the process and the address.
+pub fn spawn_serving(args: &[&str]) -> (Proc, String) {
+    let p = Proc::spawn(args);
     let url = p.line_starting("http://", Duration::from_secs(30));
     let addr = url
         .trim_start_matches("http://")
         .trim_end_matches('/')
         .to_string();
-    (p, endpoint, addr)
+    (p, addr)
 }
 
 /// GET `path` from `addr`: (status code, body).
