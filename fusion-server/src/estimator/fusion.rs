@@ -107,6 +107,8 @@ pub struct FusionCounters {
     /// Observations the filter could not apply: their innovation covariance was not
     /// positive definite.
     pub singular_updates: u64,
+    /// New robots that took the place of one long quiet, the tracker's table being full.
+    pub robot_slots_reused: u64,
 }
 
 /// Finite numbers and a symmetric positive-definite covariance: what the filter can use.
@@ -194,6 +196,7 @@ impl Fusion {
             held_in_hypotheses: self.tracker().held_in_hypotheses(),
             kicks_inferred: self.tracker().kicks_inferred(),
             singular_updates: self.tracker().singular_updates(),
+            robot_slots_reused: self.tracker().robot_slots_reused(),
             ..self.counters
         }
     }
@@ -207,6 +210,11 @@ impl Fusion {
     fn name(&mut self, robot: &str) -> Arc<str> {
         if let Some(n) = self.names.iter().find(|n| ***n == *robot) {
             return n.clone();
+        }
+        // Names no longer held by any state or snapshot go (a stream of made-up ids must
+        // not grow the list, nor the search through it, without end).
+        if self.names.len() >= 2 * crate::estimator::tracker::MAX_ROBOT_SLOTS {
+            self.names.retain(|n| Arc::strong_count(n) > 1);
         }
         let n: Arc<str> = Arc::from(robot);
         self.names.push(n.clone());

@@ -114,6 +114,8 @@ pub struct Tracker {
     /// Observations that went to hypotheses other than the estimate (waiting for promotion,
     /// or phantoms).
     held: u64,
+    /// New robots that took the place of one long quiet ([`MAX_ROBOT_SLOTS`]).
+    robot_slots_reused: u64,
     /// Time of the newest applied observation.
     pub t_s: f64,
 }
@@ -127,6 +129,13 @@ const WATCHED_S: f64 = 0.5;
 /// Robots that reported anything this recently count as on the pitch (a robot that sees
 /// no ball sends nothing, so this is long).
 const ACTIVE_ROBOT_S: f64 = 5.0;
+/// Robots the tracker learns about at most. Past this a new robot takes the place of the
+/// one quiet the longest, if that one has been quiet for [`ROBOT_SLOT_IDLE_S`], so a stream
+/// of made-up ids cannot grow the state (or the search for a robot) without end.
+pub const MAX_ROBOT_SLOTS: usize = 1024;
+/// How long a robot must have been quiet before its place may go to another; far longer
+/// than any hit or sighting history that refers to it.
+const ROBOT_SLOT_IDLE_S: f64 = 30.0;
 
 impl Tracker {
     pub fn new(cfg: Arc<TrackerConfig>, bounds: Bounds) -> Self {
@@ -141,6 +150,7 @@ impl Tracker {
             kicks_inferred: 0,
             singular_updates: 0,
             held: 0,
+            robot_slots_reused: 0,
             restitution_updates: 0,
             outside_walls: 0,
             t_s: f64::NEG_INFINITY,
@@ -184,6 +194,11 @@ impl Tracker {
         let sd = |k: usize| o.covariance_m2[(k, k)].max(0.0).sqrt();
         let out_by = [x - b.x_max, b.x_min - x, y - b.y_max, b.y_min - y];
         (0..4).any(|i| b.walls[i] && out_by[i] > (3.0 * sd(i / 2)).max(0.05))
+    }
+
+    /// New robots that took the place of one long quiet, the table being full.
+    pub fn robot_slots_reused(&self) -> u64 {
+        self.robot_slots_reused
     }
 
     /// Kicks inferred from runs of surprising updates.
@@ -241,7 +256,7 @@ impl Tracker {
         if let Some(i) = self.robots.iter().position(|r| r.robot == o.robot) {
             return i;
         }
-        self.robots.push(RobotTrust {
+        let fresh = RobotTrust {
             robot: o.robot.clone(),
             pose: o.robot_pose,
             last_obs_s: o.t_s,
@@ -250,7 +265,22 @@ impl Tracker {
             outlier_samples: 0,
             observations: 0,
             clocks: CameraClocks::default(),
-        });
+        };
+        if self.robots.len() >= MAX_ROBOT_SLOTS {
+            let quietest = self
+                .robots
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| o.t_s - r.last_obs_s > ROBOT_SLOT_IDLE_S)
+                .min_by(|a, b| a.1.last_obs_s.total_cmp(&b.1.last_obs_s))
+                .map(|(i, _)| i);
+            if let Some(i) = quietest {
+                self.robots[i] = fresh;
+                self.robot_slots_reused += 1;
+                return i;
+            }
+        }
+        self.robots.push(fresh);
         self.robots.len() - 1
     }
 

@@ -116,7 +116,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 22] = [
+    let simple: [(&str, &str, &str, u64); 23] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -158,6 +158,12 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "counter",
             "Kicks inferred from runs of surprising sightings.",
             core.kicks_inferred,
+        ),
+        (
+            "rf_robot_slots_reused_total",
+            "counter",
+            "New robot ids that took the fusion's place of one quiet for 30 s, its table of 1024 being full (a flood of made-up ids).",
+            core.robot_slots_reused,
         ),
         (
             "rf_states_published_total",

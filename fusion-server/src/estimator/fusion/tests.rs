@@ -335,3 +335,37 @@ fn poison_is_rejected_without_touching_the_state() {
     assert_eq!(f.counters().rejected, 3);
     assert!(f.tracker().tracks().is_empty());
 }
+
+#[test]
+fn a_stream_of_made_up_robot_ids_does_not_grow_the_state_without_end() {
+    use crate::estimator::tracker::MAX_ROBOT_SLOTS;
+    let mut f = Fusion::new(FusionConfig::default());
+    // Three honest robots follow a ball at rest while 3 000 made-up ids each say one
+    // thing, ten a second.
+    let (mut seq, made_up) = (0u64, 3000usize);
+    for k in 0..made_up {
+        let t = k as f64 * 0.1;
+        for robot in ["a", "b", "c"] {
+            f.ingest(&obs(robot, seq, t, [0.5, 0.2], 0.02), Stamp(T0).offset_secs(t));
+            seq += 1;
+        }
+        let fake = format!("fake{k}");
+        let o = obs(&fake, 0, t + 0.05, [-1.0, -0.8], 0.02);
+        f.ingest(&o, o.stamp);
+    }
+    let tracker = f.tracker();
+    assert!(
+        tracker.robots().len() <= MAX_ROBOT_SLOTS,
+        "{} robots kept",
+        tracker.robots().len()
+    );
+    assert!(tracker.robot_slots_reused() >= (made_up + 3 - MAX_ROBOT_SLOTS) as u64);
+    assert!(f.names.len() < 2 * MAX_ROBOT_SLOTS + 1, "{} names", f.names.len());
+    // The honest robots kept their places, and the ball is theirs.
+    for robot in ["a", "b", "c"] {
+        assert!(tracker.robots().iter().any(|r| &*r.robot == robot), "{robot}");
+    }
+    let t = (made_up - 1) as f64 * 0.1;
+    let st = f.ball_state(Stamp(T0).offset_secs(t)).expect("a state");
+    assert!((st.position_m[0] - 0.5).abs() < 0.05, "{:?}", st.position_m);
+}
