@@ -346,7 +346,10 @@ fn a_stream_of_made_up_robot_ids_does_not_grow_the_state_without_end() {
     for k in 0..made_up {
         let t = k as f64 * 0.1;
         for robot in ["a", "b", "c"] {
-            f.ingest(&obs(robot, seq, t, [0.5, 0.2], 0.02), Stamp(T0).offset_secs(t));
+            f.ingest(
+                &obs(robot, seq, t, [0.5, 0.2], 0.02),
+                Stamp(T0).offset_secs(t),
+            );
             seq += 1;
         }
         let fake = format!("fake{k}");
@@ -360,10 +363,17 @@ fn a_stream_of_made_up_robot_ids_does_not_grow_the_state_without_end() {
         tracker.robots().len()
     );
     assert!(tracker.robot_slots_reused() >= (made_up + 3 - MAX_ROBOT_SLOTS) as u64);
-    assert!(f.names.len() < 2 * MAX_ROBOT_SLOTS + 1, "{} names", f.names.len());
+    assert!(
+        f.names.len() < 2 * MAX_ROBOT_SLOTS + 1,
+        "{} names",
+        f.names.len()
+    );
     // The honest robots kept their places, and the ball is theirs.
     for robot in ["a", "b", "c"] {
-        assert!(tracker.robots().iter().any(|r| &*r.robot == robot), "{robot}");
+        assert!(
+            tracker.robots().iter().any(|r| &*r.robot == robot),
+            "{robot}"
+        );
     }
     let t = (made_up - 1) as f64 * 0.1;
     let st = f.ball_state(Stamp(T0).offset_secs(t)).expect("a state");
