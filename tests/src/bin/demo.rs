@@ -100,6 +100,11 @@ fn main() -> Result<()> {
 
 async fn run(a: DemoArgs) -> Result<()> {
     let (mut cfg, rec) = serve_config(&a.serve)?;
+    anyhow::ensure!(
+        !cfg.net.is_secured(),
+        "the demo's simulated robots have no certificates: run it without --tls (a secured \
+         network with simulated robots: `sim_robots --keys`, docs/operations.md 4.6)"
+    );
     if cfg.net.listen.is_empty() {
         cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
     }
