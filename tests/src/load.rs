@@ -33,6 +33,9 @@ pub struct LoadConfig {
     /// Robots wait for room in Zenoh's send queue instead of dropping (the agent drops,
     /// Zenoh's default): with it, a loss can only be the server's.
     pub block: bool,
+    /// A secured network: TLS with mutual authentication, every robot with its own
+    /// certificate, the server with the roster's access-control list.
+    pub tls: bool,
 }
 
 impl Default for LoadConfig {
@@ -46,6 +49,7 @@ impl Default for LoadConfig {
             capture_delay_s: 0.04,
             drain_s: 5.0,
             block: false,
+            tls: false,
         }
     }
 }
@@ -108,18 +112,26 @@ pub struct ServerProcess {
 
 impl ServerProcess {
     /// Starts `bin serve` listening on a free loopback Zenoh port (scouting stays off, its
-    /// default) and an OS-chosen HTTP port; waits for the address it prints.
-    pub fn start(bin: &Path) -> Result<ServerProcess> {
-        let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    /// default) and an OS-chosen HTTP port; waits for the address it prints. With `keys`,
+    /// the network is secured: TLS from the keys' server folder, and their roster.
+    pub fn start(bin: &Path, keys: Option<&Keys>) -> Result<ServerProcess> {
+        let port = free_loopback_port()?;
+        let (endpoint, security) = match keys {
+            Some(k) => (
+                format!("tls/127.0.0.1:{port}"),
+                vec![
+                    "--tls".to_string(),
+                    k.server_dir().display().to_string(),
+                    "--roster".into(),
+                    k.robots.join(","),
+                ],
+            ),
+            None => (format!("tcp/127.0.0.1:{port}"), vec!["--open".to_string()]),
+        };
         let mut child = Command::new(bin)
-            .args([
-                "serve",
-                "--open",
-                "--listen",
-                &endpoint,
-                "--http",
-                "127.0.0.1:0",
-            ])
+            .arg("serve")
+            .args(&security)
+            .args(["--listen", &endpoint, "--http", "127.0.0.1:0"])
             .env("RUST_LOG", "warn,zenoh=error")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -198,10 +210,72 @@ pub fn http_get(addr: &str, path: &str) -> Result<String> {
     Ok(body.to_string())
 }
 
-/// Opens a session to `endpoint` and waits for its link, so nothing is published into the
-/// void.
-async fn connect(endpoint: &str) -> Result<zenoh::Session> {
-    let s = NetConfig::connecting(endpoint).open().await?;
+/// The certificates of a secured load test, in a folder removed when dropped.
+#[derive(Debug)]
+pub struct Keys {
+    dir: std::path::PathBuf,
+    pub robots: Vec<String>,
+}
+
+impl Keys {
+    /// An authority, the server's folder and one folder per robot id.
+    pub fn issue(robots: Vec<String>) -> Result<Keys> {
+        use fusion_server::security::keys::{Authority, Validity};
+        use fusion_server::security::{robot_common_name, server_common_name};
+        let dir = std::env::temp_dir().join(format!("rf-load-keys-{}", std::process::id()));
+        let validity = Validity::starting(jiff::Timestamp::now(), 2)?;
+        let ca = Authority::new("load test authority", validity)?;
+        let write = |sub: &Path, node: &fusion_server::security::keys::Issued| -> Result<()> {
+            std::fs::create_dir_all(sub)?;
+            std::fs::write(sub.join("ca.pem"), &ca.issued.cert_pem)?;
+            std::fs::write(sub.join("cert.pem"), &node.cert_pem)?;
+            std::fs::write(sub.join("key.pem"), &node.key_pem)?;
+            Ok(())
+        };
+        let keys = Keys { dir, robots };
+        let hosts = ["127.0.0.1".to_string()];
+        write(
+            &keys.server_dir(),
+            &ca.issue(&server_common_name("load"), &hosts, validity)?,
+        )?;
+        for id in &keys.robots {
+            write(
+                &keys.robot_dir(id),
+                &ca.issue(&robot_common_name(id), &[], validity)?,
+            )?;
+        }
+        Ok(keys)
+    }
+
+    pub fn server_dir(&self) -> std::path::PathBuf {
+        self.dir.join("server")
+    }
+
+    pub fn robot_dir(&self, id: &str) -> std::path::PathBuf {
+        self.dir.join(format!("robot-{id}"))
+    }
+}
+
+impl Drop for Keys {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// The load test's robot ids.
+fn robot_ids(n: usize) -> Vec<String> {
+    (0..n).map(|r| format!("load{r:03}")).collect()
+}
+
+/// Opens a session to `endpoint` (with `tls`, that robot's certificate) and waits for its
+/// link, so nothing is published into the void.
+async fn connect(endpoint: &str, tls: Option<&Path>) -> Result<zenoh::Session> {
+    let s = NetConfig {
+        tls: tls.map(proto::net::TlsFiles::in_dir),
+        ..NetConfig::connecting(endpoint)
+    }
+    .open()
+    .await?;
     let deadline = Instant::now() + Duration::from_secs(10);
     while s.info().peers_zid().await.next().is_none() {
         anyhow::ensure!(Instant::now() < deadline, "no peer at {endpoint}");
@@ -249,19 +323,19 @@ struct Fleet {
     robots: Vec<(String, Pose2, zenoh::pubsub::Publisher<'static>)>,
 }
 
-async fn fleet(endpoint: &str, cfg: &LoadConfig) -> Result<Fleet> {
+async fn fleet(endpoint: &str, cfg: &LoadConfig, certs: Option<&Keys>) -> Result<Fleet> {
     let keys = KeySpace::default();
     let mut f = Fleet {
         sessions: Vec::new(),
         tokens: Vec::new(),
         robots: Vec::new(),
     };
-    for r in 0..cfg.robots {
+    for (r, id) in robot_ids(cfg.robots).into_iter().enumerate() {
         if r % cfg.robots_per_session.max(1) == 0 {
-            f.sessions.push(connect(endpoint).await?);
+            let tls = certs.map(|k| k.robot_dir(&id));
+            f.sessions.push(connect(endpoint, tls.as_deref()).await?);
         }
         let session = f.sessions.last().context("a session")?;
-        let id = format!("load{r:03}");
         let token = session
             .liveliness()
             .declare_token(keys.robot_liveliness(&id)?)
@@ -287,14 +361,24 @@ async fn fleet(endpoint: &str, cfg: &LoadConfig) -> Result<Fleet> {
 /// Runs the load against a server process started from `server_bin`; `progress` shows
 /// the seconds. The server is stopped before this returns.
 pub async fn run(server_bin: &Path, cfg: &LoadConfig, progress: &Progress) -> Result<LoadReport> {
-    let mut server = ServerProcess::start(server_bin)?;
+    anyhow::ensure!(
+        !cfg.tls || cfg.robots_per_session <= 1,
+        "with TLS every robot has its own certificate, so its own session"
+    );
+    let keys = if cfg.tls {
+        progress.message(format!("issuing {} certificates", cfg.robots + 1));
+        Some(Keys::issue(robot_ids(cfg.robots))?)
+    } else {
+        None
+    };
+    let mut server = ServerProcess::start(server_bin, keys.as_ref())?;
     let pid = server.pid();
     progress.message(format!("{} robots connecting", cfg.robots));
     let Fleet {
         sessions,
         tokens,
         robots,
-    } = fleet(&server.endpoint, cfg).await?;
+    } = fleet(&server.endpoint, cfg, keys.as_ref()).await?;
     // Let the server see the tokens and settle before measuring its idle size.
     tokio::time::sleep(Duration::from_millis(500)).await;
     let rss_idle_kb = proc_status_kb(pid, "VmRSS:").unwrap_or(0);
@@ -392,6 +476,7 @@ pub async fn run(server_bin: &Path, cfg: &LoadConfig, progress: &Progress) -> Re
         hz: cfg.hz,
         seconds: cfg.seconds,
         sessions: cfg.robots.div_ceil(cfg.robots_per_session.max(1)),
+        tls: cfg.tls,
         publish_s,
         sent: sent_ok,
         put_errors: sent.errors.load(Relaxed),

@@ -126,6 +126,8 @@ pub struct LoadReport {
     pub seconds: f64,
     /// Zenoh sessions the robots used (one each unless asked otherwise).
     pub sessions: usize,
+    /// A secured network: TLS with mutual authentication and the roster's access control.
+    pub tls: bool,
     /// Wall time of the publishing, seconds.
     pub publish_s: f64,
     pub sent: u64,
@@ -195,13 +197,18 @@ impl LoadReport {
             (
                 "load".to_string(),
                 format!(
-                    "{} robots × {} cameras × {} Hz for {} s = {} observations/s ({} Zenoh sessions, a liveliness token each)",
+                    "{} robots × {} cameras × {} Hz for {} s = {} observations/s ({} Zenoh sessions, a liveliness token each{})",
                     self.robots,
                     self.cameras,
                     self.hz,
                     self.seconds,
                     (self.robots * self.cameras) as f64 * self.hz,
-                    self.sessions
+                    self.sessions,
+                    if self.tls {
+                        "; TLS with mutual authentication, a certificate per robot, the roster's access control"
+                    } else {
+                        "; plain TCP"
+                    }
                 ),
             ),
             (

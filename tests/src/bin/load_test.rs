@@ -32,6 +32,10 @@ struct Args {
     /// any loss left is the server's.
     #[arg(long)]
     block: bool,
+    /// A secured network: TLS with mutual authentication, a certificate per robot, the
+    /// roster's access-control list (its table goes between the load-test-tls markers).
+    #[arg(long)]
+    tls: bool,
     /// The server binary [default: `fusion-server` beside this one].
     #[arg(long)]
     server: Option<PathBuf>,
@@ -41,8 +45,14 @@ struct Args {
     doc: Option<PathBuf>,
 }
 
-const BEGIN: &str = "<!-- load-test:begin -->";
-const END: &str = "<!-- load-test:end -->";
+/// Where `--doc` puts the table: one section for the open network, one for TLS.
+fn markers(tls: bool) -> (&'static str, &'static str) {
+    if tls {
+        ("<!-- load-test-tls:begin -->", "<!-- load-test-tls:end -->")
+    } else {
+        ("<!-- load-test:begin -->", "<!-- load-test:end -->")
+    }
+}
 
 fn main() {
     if let Err(e) = run(Args::parse()) {
@@ -75,6 +85,7 @@ fn run(args: Args) -> Result<()> {
         seconds: args.seconds,
         robots_per_session: args.robots_per_session,
         block: args.block,
+        tls: args.tls,
         ..LoadConfig::default()
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -96,6 +107,9 @@ fn run(args: Args) -> Result<()> {
     if args.block {
         command.push_str(" --block");
     }
+    if args.tls {
+        command.push_str(" --tls");
+    }
     if let Some(p) = &args.doc {
         command.push_str(&format!(" --doc {}", p.display()));
     }
@@ -108,7 +122,8 @@ fn run(args: Args) -> Result<()> {
         std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
     }
     if let Some(p) = &args.doc {
-        harness::report::rewrite_section_between(p, BEGIN, END, &table)?;
+        let (begin, end) = markers(args.tls);
+        harness::report::rewrite_section_between(p, begin, end, &table)?;
     }
     anyhow::ensure!(
         report.nothing_lost(),
