@@ -4,6 +4,7 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use fusion_server::security::keys::{Authority, Validity};
+use fusion_server::security::node_dir;
 use fusion_server::security::{acl, robot_common_name, router_common_name, server_common_name};
 use std::path::{Path, PathBuf};
 
@@ -57,7 +58,7 @@ pub fn run(a: KeysArgs) -> Result<()> {
         std::fs::create_dir_all(&ca_dir).with_context(|| ca_dir.display().to_string())?;
         let ca = Authority::new("robot football network authority", validity)?;
         std::fs::write(&ca_cert, &ca.issued.cert_pem)?;
-        write_secret(&ca_key, &ca.issued.key_pem)?;
+        node_dir::write_secret(&ca_key, &ca.issued.key_pem)?;
         println!("authority: {} (new; keep ca.key secret)", ca_cert.display());
         ca
     };
@@ -82,10 +83,8 @@ pub fn run(a: KeysArgs) -> Result<()> {
             // Robots only connect; servers and routers are connected to, by these names.
             let names: &[String] = if kind == "robot" { &[] } else { &hosts };
             let issued = ca.issue(&common_name(id), names, validity)?;
-            std::fs::create_dir_all(&dir).with_context(|| dir.display().to_string())?;
-            std::fs::write(dir.join("ca.pem"), &ca.issued.cert_pem)?;
-            std::fs::write(dir.join("cert.pem"), &issued.cert_pem)?;
-            write_secret(&dir.join("key.pem"), &issued.key_pem)?;
+            node_dir::write(&dir, &ca.issued.cert_pem, &issued)
+                .with_context(|| dir.display().to_string())?;
             println!("{kind} {id}: {} ({})", dir.display(), common_name(id));
         }
     }
@@ -143,16 +142,4 @@ fn issued_ids(out: &Path) -> Result<[Vec<String>; 3]> {
     }
     ids.iter_mut().for_each(|v| v.sort());
     Ok(ids)
-}
-
-/// Writes a private key readable by its owner only.
-fn write_secret(path: &Path, text: &str) -> Result<()> {
-    use std::io::Write;
-    let mut o = std::fs::OpenOptions::new();
-    o.write(true).create(true).truncate(true);
-    #[cfg(unix)]
-    std::os::unix::fs::OpenOptionsExt::mode(&mut o, 0o600);
-    let mut f = o.open(path).with_context(|| path.display().to_string())?;
-    f.write_all(text.as_bytes())?;
-    Ok(())
 }

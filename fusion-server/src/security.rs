@@ -9,6 +9,7 @@
 
 pub mod acl;
 pub mod keys;
+pub mod node_dir;
 
 /// The common name in robot `id`'s certificate.
 pub fn robot_common_name(id: &str) -> String {

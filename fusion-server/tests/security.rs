@@ -19,7 +19,7 @@ use std::path::Path;
 use std::process::Command;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use support::{BIN, Proc, get_json, http_get, spawn_serving, wait_for};
+use support::{BIN, Proc, get_json, http_get, start_server_on, wait_for};
 
 const HONEST: [f64; 2] = [0.8, -0.3];
 const FORGED: [f64; 2] = [-0.9, 0.5];
@@ -238,26 +238,11 @@ async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Pat
     }
 }
 
+/// Server `main`, secured with its folder in `dir`, on a TLS endpoint.
 fn start_server(dir: &Path, extra: &[&str]) -> (Proc, String, String) {
-    let port = free_loopback_port().expect("free port");
-    let endpoint = format!("tls/127.0.0.1:{port}");
     let tls = dir.join("server-main").to_string_lossy().into_owned();
-    let mut args = vec![
-        "serve",
-        "--id",
-        "main",
-        "--tls",
-        &tls,
-        "--roster",
-        "miro1,miro2",
-        "--listen",
-        &endpoint,
-        "--http",
-        "127.0.0.1:0",
-    ];
-    args.extend_from_slice(extra);
-    let (p, addr) = spawn_serving(&args);
-    (p, endpoint, addr)
+    let security = ["--id", "main", "--tls", &tls, "--roster", "miro1,miro2"];
+    start_server_on("tls", &security, extra)
 }
 
 #[tokio::test(flavor = "multi_thread")]

@@ -100,7 +100,8 @@ impl Default for NetConfig {
     }
 }
 
-fn check_endpoint(e: &str) -> Result<(), NetError> {
+/// Checks that `e` is `PROTOCOL/HOST:PORT`; returns its host.
+fn check_endpoint(e: &str) -> Result<&str, NetError> {
     let bad = || NetError::BadEndpoint(e.to_string());
     let (proto, rest) = e.split_once('/').ok_or_else(bad)?;
     let addr = rest.split(['?', '#']).next().unwrap_or_default();
@@ -108,17 +109,12 @@ fn check_endpoint(e: &str) -> Result<(), NetError> {
     if proto.is_empty() || host.is_empty() || port.parse::<u16>().is_err() {
         return Err(bad());
     }
-    Ok(())
+    Ok(host)
 }
 
-/// Whether `endpoint`'s host is this machine only (127.0.0.0/8, ::1 or localhost).
-fn is_loopback(endpoint: &str) -> bool {
-    let host = endpoint
-        .split_once('/')
-        .map(|(_, rest)| rest.split(['?', '#']).next().unwrap_or_default())
-        .and_then(|addr| addr.rsplit_once(':'))
-        .map(|(host, _)| host.trim_start_matches('[').trim_end_matches(']'))
-        .unwrap_or_default();
+/// Whether `host` (of an endpoint) is this machine only: 127.0.0.0/8, ::1 or localhost.
+fn is_loopback(host: &str) -> bool {
+    let host = host.trim_start_matches('[').trim_end_matches(']');
     host == "localhost"
         || host
             .parse::<std::net::IpAddr>()
@@ -147,11 +143,11 @@ impl NetConfig {
             return Err(NetError::BadMode(self.mode.clone()));
         }
         for e in self.listen.iter().chain(&self.connect) {
-            check_endpoint(e)?;
+            let host = check_endpoint(e)?;
             let is_tls = e.starts_with("tls/");
             match &self.tls {
                 // A loopback link stays on this machine (a ROS bridge beside the agent).
-                Some(_) if !is_tls && !is_loopback(e) => {
+                Some(_) if !is_tls && !is_loopback(host) => {
                     return Err(NetError::PlainEndpoint(e.clone()));
                 }
                 None if is_tls => return Err(NetError::NoCertificates(e.clone())),

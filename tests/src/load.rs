@@ -225,12 +225,8 @@ impl Keys {
         let dir = std::env::temp_dir().join(format!("rf-load-keys-{}", std::process::id()));
         let validity = Validity::starting(jiff::Timestamp::now(), 2)?;
         let ca = Authority::new("load test authority", validity)?;
-        let write = |sub: &Path, node: &fusion_server::security::keys::Issued| -> Result<()> {
-            std::fs::create_dir_all(sub)?;
-            std::fs::write(sub.join("ca.pem"), &ca.issued.cert_pem)?;
-            std::fs::write(sub.join("cert.pem"), &node.cert_pem)?;
-            std::fs::write(sub.join("key.pem"), &node.key_pem)?;
-            Ok(())
+        let write = |sub: &Path, node: &fusion_server::security::keys::Issued| {
+            fusion_server::security::node_dir::write(sub, &ca.issued.cert_pem, node)
         };
         let keys = Keys { dir, robots };
         let hosts = ["127.0.0.1".to_string()];

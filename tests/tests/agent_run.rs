@@ -2,13 +2,20 @@
 //! MCAP and to an image folder and played back from both by `robot-agent run`, and live
 //! over a real loopback Zenoh session (observations, status, liveliness, the shared ball
 //! state); a robot the scenario lacks and a calibration of another frame shape refused.
+//! On a secured network (`--tls DIR`, a listener demanding a certificate from the
+//! network's authority and applying the roster's access-control list), its observations
+//! arrive with its own certificate, and none with another robot's under its id.
 
 #![allow(clippy::unwrap_used)]
 
-use proto::net::{NetConfig, free_loopback_port};
+use fusion_server::security::acl::{self, Roster};
+use fusion_server::security::keys::{Authority, Issued, Validity};
+use fusion_server::security::{robot_common_name, server_common_name};
+use proto::net::{NetConfig, TlsFiles, free_loopback_port};
 use proto::{Observation, Pitch, RobotStatus, Validate, ValidationContext};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -16,6 +23,19 @@ use std::time::{Duration, Instant};
 const AGENT_CLI: &str = env!("CARGO_BIN_EXE_agent_cli");
 
 const SIM_AGENT: &str = env!("CARGO_BIN_EXE_sim_agent");
+
+/// `sim_agent run` as miro1 of the `seed-1-across` match (seed 2) for `duration_s`,
+/// publishing to `endpoint`, with `extra` flags.
+fn live_agent(endpoint: &str, duration_s: &str, extra: &[&std::ffi::OsStr]) -> Command {
+    let mut c = Command::new(SIM_AGENT);
+    c.args(["run", "--robot-id", "miro1", "--connect", endpoint])
+        .args(extra)
+        .args(["--scenario", "seed-1-across", "--seed", "2"])
+        .args(["--duration-s", duration_s])
+        .env("RUST_LOG", "warn,zenoh=error")
+        .stderr(Stdio::inherit());
+    c
+}
 
 /// Runs the agent (`bin`: `sim_agent` or `robot-agent`) to its end and returns (frames,
 /// observations) from its summary line.
@@ -122,19 +142,8 @@ async fn live_agent_publishes_over_zenoh() {
             .await
             .unwrap()
     };
-    let child = Command::new(SIM_AGENT)
-        .args(["run", "--robot-id", "miro1", "--connect", &endpoint])
-        .args([
-            "--scenario",
-            "seed-1-across",
-            "--seed",
-            "2",
-            "--duration-s",
-            "4",
-        ])
-        .env("RUST_LOG", "warn,zenoh=error")
+    let child = live_agent(&endpoint, "4", &[])
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
         .spawn()
         .unwrap();
     // The robot is alive while it runs.
@@ -260,4 +269,89 @@ fn a_calibration_of_another_shape_is_refused() {
         stderr.contains("640×480") && stderr.contains("640×360") && stderr.contains("shape"),
         "{stderr}"
     );
+}
+
+fn write(dir: &Path, ca: &Authority, node: &Issued) -> PathBuf {
+    fusion_server::security::node_dir::write(dir, &ca.issued.cert_pem, node).unwrap();
+    dir.to_path_buf()
+}
+
+/// Runs `sim_agent` as miro1 for 3 s with the certificate in `tls`; returns how many of
+/// its observations the listener received.
+async fn observations_received_over_tls(tls: &Path, server_tls: &Path) -> u64 {
+    let endpoint = format!("tls/127.0.0.1:{}", free_loopback_port().unwrap());
+    let net = NetConfig {
+        tls: Some(TlsFiles::in_dir(server_tls)),
+        ..NetConfig::listening(&endpoint)
+    };
+    let mut config = net.zenoh_config().unwrap();
+    let (robots, servers) = (
+        vec!["miro1".to_string(), "miro2".into()],
+        vec!["main".to_string()],
+    );
+    acl::install(
+        &mut config,
+        &Roster {
+            prefix: "rf",
+            robots: &robots,
+            servers: &servers,
+            routers: &[],
+        },
+    )
+    .unwrap();
+    let session = zenoh::open(config).await.unwrap();
+    let count = Arc::new(AtomicU64::new(0));
+    let c = count.clone();
+    let _sub = session
+        .declare_subscriber("rf/robots/*/obs")
+        .callback(move |_| {
+            c.fetch_add(1, Ordering::Relaxed);
+        })
+        .await
+        .unwrap();
+    let child = live_agent(&endpoint, "3", &["--tls".as_ref(), tls.as_os_str()])
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let out = tokio::task::spawn_blocking(move || child.wait_with_output())
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(out.status.success());
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let _ = session.close().await;
+    count.load(Ordering::Relaxed)
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn the_agent_joins_with_its_own_certificate_only() {
+    let tmp = tempfile::tempdir().unwrap();
+    let validity = Validity::starting(jiff::Timestamp::now(), 2).unwrap();
+    let ca = Authority::new("test authority", validity).unwrap();
+    let hosts = ["127.0.0.1".to_string()];
+    let server = write(
+        &tmp.path().join("server"),
+        &ca,
+        &ca.issue(&server_common_name("main"), &hosts, validity)
+            .unwrap(),
+    );
+    let miro1 = write(
+        &tmp.path().join("miro1"),
+        &ca,
+        &ca.issue(&robot_common_name("miro1"), &[], validity)
+            .unwrap(),
+    );
+    let miro2 = write(
+        &tmp.path().join("miro2"),
+        &ca,
+        &ca.issue(&robot_common_name("miro2"), &[], validity)
+            .unwrap(),
+    );
+    let own = observations_received_over_tls(&miro1, &server).await;
+    assert!(
+        own >= 10,
+        "only {own} observations with its own certificate"
+    );
+    let borrowed = observations_received_over_tls(&miro2, &server).await;
+    assert_eq!(borrowed, 0, "miro2's certificate published as miro1");
 }

@@ -78,34 +78,33 @@ impl Drop for Proc {
     }
 }
 
-/// Starts a server on a free Zenoh port and an OS-chosen HTTP port; returns it, its Zenoh
-/// endpoint and its HTTP address.
+/// Starts an open server on a free Zenoh port and an OS-chosen HTTP port; returns it, its
+/// Zenoh endpoint and its HTTP address.
 pub fn start_server(extra: &[&str]) -> (Proc, String, String) {
-    let port = fusion_server::shell::net::free_loopback_port().expect("free port");
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let mut args = vec![
-        "serve",
-        "--open",
-        "--listen",
-        &endpoint,
-        "--http",
-        "127.0.0.1:0",
-    ];
-    args.extend_from_slice(extra);
-    let (p, addr) = spawn_serving(&args);
-    (p, endpoint, addr)
+    start_server_on("tcp", &["--open"], extra)
 }
 
-/// Runs `fusion-server` with `args`, a serving command, and waits for the HTTP address
-/// it prints: the process and the address.
-pub fn spawn_serving(args: &[&str]) -> (Proc, String) {
-    let p = Proc::spawn(args);
+/// Starts a server listening over `protocol` (`tcp` or `tls`) on a free loopback port,
+/// with `security` (`--open`, or `--tls DIR --roster …`) and `extra` flags, and an
+/// OS-chosen HTTP port; returns it, its Zenoh endpoint and its HTTP address.
+pub fn start_server_on(
+    protocol: &str,
+    security: &[&str],
+    extra: &[&str],
+) -> (Proc, String, String) {
+    let port = fusion_server::shell::net::free_loopback_port().expect("free port");
+    let endpoint = format!("{protocol}/127.0.0.1:{port}");
+    let mut args = vec!["serve"];
+    args.extend_from_slice(security);
+    args.extend_from_slice(&["--listen", &endpoint, "--http", "127.0.0.1:0"]);
+    args.extend_from_slice(extra);
+    let p = Proc::spawn(&args);
     let url = p.line_starting("http://", Duration::from_secs(30));
     let addr = url
         .trim_start_matches("http://")
         .trim_end_matches('/')
         .to_string();
-    (p, addr)
+    (p, endpoint, addr)
 }
 
 /// GET `path` from `addr`: (status code, body).
