@@ -194,8 +194,12 @@ fn matchlog_target() -> Target {
 /// Writes a few messages with [`McapLog`] in a fresh temporary directory and returns the
 /// file's bytes.
 pub fn write_small_log(compression: LogCompression) -> anyhow::Result<Vec<u8>> {
+    // A directory of this call's own: tests building the targets at once in one process
+    // must not write the same file.
+    static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let dir: PathBuf = std::env::temp_dir().join(format!(
-        "fuzz-matchlog-{}-{:?}",
+        "fuzz-matchlog-{}-{call}-{:?}",
         std::process::id(),
         compression
     ));
