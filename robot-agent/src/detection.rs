@@ -21,13 +21,19 @@
 //! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
 //! - [`two_colour`]: the two-colour mask of a patterned ball (the ball's colour with white
 //!   patches) as one disc.
+//! - [`contrast`]: proposals by appearance, of any colour: compact blobs that stand out
+//!   from their surroundings, by centre-surround filters over an image pyramid.
+//! - [`ballnet`]: the ball network, a small CNN on a candidate's colour patch giving the
+//!   ball's probability and its refined centre and radius, with its own forward pass.
 //! - [`detect`]: one frame to ball candidates through the stages above.
 //! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
 //!   what became of it, and the photo with the candidates drawn.
 
+pub mod ballnet;
 pub mod blob_circle;
 pub mod classifier;
 pub mod components;
+pub mod contrast;
 pub mod detect;
 mod detect_config;
 pub mod hog;

@@ -2,10 +2,13 @@
 //! Pascal VOC `.xml` or YOLO `.txt` files named after the images, and the camera the
 //! images were taken with.
 //!
-//! An image without a label file is taken as holding no ball (YOLO's convention for
-//! background images); a label file that cannot be read is reported and its image left
-//! out. YOLO class ids that are balls come from `--ball-class`, or else from a
-//! `classes.txt` or `data.yaml` names list in the label folder or the folder above it.
+//! The image folder is searched with its subfolders (a data set of several events, one
+//! folder each); an image's label file is at the same relative place in the label folder,
+//! or beside the image. An image without a label file is taken as holding no ball (YOLO's
+//! convention for background images); a label file that cannot be read is reported and its
+//! image left out. YOLO class ids that are balls come from `--ball-class`, or else from a
+//! `classes.txt`, `obj.names` or `data.yaml` names list in the label folder or the folder
+//! above it.
 
 use crate::calibration::camera::CameraModel;
 use crate::image::RgbImage;
@@ -16,14 +19,15 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct LabelledArgs {
-    /// Folder of labelled photographs (PNG or JPEG).
+    /// Folder of labelled photographs (PNG or JPEG), subfolders included.
     #[arg(long, requires = "labels")]
     pub images: Option<PathBuf>,
-    /// Folder of label files named after the images: Pascal VOC `.xml` or YOLO `.txt`.
+    /// Folder of label files named after the images, in the same subfolders (or the
+    /// images' own folder): Pascal VOC `.xml` or YOLO `.txt`.
     #[arg(long, requires = "images")]
     pub labels: Option<PathBuf>,
-    /// A YOLO class id that is a ball (repeatable). Default: from a classes.txt or
-    /// data.yaml names list next to the labels.
+    /// A YOLO class id that is a ball (repeatable). Default: from a classes.txt, obj.names
+    /// or data.yaml names list next to the labels.
     #[arg(long = "ball-class")]
     pub ball_classes: Vec<u32>,
     /// A class name that is a ball, any case (repeatable). Default: ball, sports ball,
@@ -111,6 +115,9 @@ impl CameraChoice {
 pub struct Item {
     pub image: PathBuf,
     pub label: Option<PathBuf>,
+    /// The image's folder relative to `--images` (empty at the top): its event, for
+    /// per-folder scores.
+    pub folder: String,
 }
 
 impl Item {
@@ -135,11 +142,13 @@ pub struct LabelledFolder {
 /// The names list of a YOLO data set: `classes.txt` or `data.yaml` in `dir` or its parent.
 fn names_list(dir: &Path) -> Result<Option<(PathBuf, Vec<String>)>> {
     for d in [Some(dir), dir.parent()].into_iter().flatten() {
-        let classes = d.join("classes.txt");
-        if classes.is_file() {
-            let text = std::fs::read_to_string(&classes)
-                .with_context(|| format!("reading {}", classes.display()))?;
-            return Ok(Some((classes, parse_classes_txt(&text))));
+        for list in ["classes.txt", "obj.names"] {
+            let classes = d.join(list);
+            if classes.is_file() {
+                let text = std::fs::read_to_string(&classes)
+                    .with_context(|| format!("reading {}", classes.display()))?;
+                return Ok(Some((classes, parse_classes_txt(&text))));
+            }
         }
         for yaml in ["data.yaml", "data.yml"] {
             let path = d.join(yaml);
@@ -197,18 +206,30 @@ impl LabelledFolder {
         }
         let mut items = Vec::new();
         let mut labelled = 0;
-        for image in crate::io::image_io::image_files(images)? {
+        for image in crate::io::image_io::image_files_recursive(images)? {
+            let relative = image.strip_prefix(images).unwrap_or(&image).to_path_buf();
+            let folder = relative
+                .parent()
+                .map(|p| p.to_string_lossy().into_owned())
+                .unwrap_or_default();
             let stem = image.file_stem().unwrap_or_default();
-            let label = ["xml", "txt"]
+            let beside = image.parent().unwrap_or(images);
+            let label = [labels.join(&folder), beside.to_path_buf()]
                 .iter()
-                .map(|ext| {
-                    let mut name = stem.to_os_string();
-                    name.push(format!(".{ext}"));
-                    labels.join(name)
+                .flat_map(|dir| {
+                    ["xml", "txt"].iter().map(move |ext| {
+                        let mut name = stem.to_os_string();
+                        name.push(format!(".{ext}"));
+                        dir.join(name)
+                    })
                 })
                 .find(|p| p.is_file());
             labelled += usize::from(label.is_some());
-            items.push(Item { image, label });
+            items.push(Item {
+                image,
+                label,
+                folder,
+            });
         }
         if items.is_empty() {
             bail!("no PNG or JPEG images in {}", images.display());

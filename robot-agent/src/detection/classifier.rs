@@ -1,5 +1,5 @@
-//! The learned half of the detector: the k-means dominant-colour check and the HOG + SVM
-//! filter as one [`CandidateClassifier`].
+//! The learned half of the detector: the ball network ([`NetClassifier`]), or the seed's
+//! k-means dominant-colour check and HOG + SVM filter as one [`CandidateClassifier`].
 //!
 //! The colour check runs first because it is cheap and rejects blobs whose pixels are
 //! mostly not the ball's colour (a white robot part under warm light that only grazes the
@@ -8,6 +8,7 @@
 //! the ball. With a patterned ball's patch colour, the colour check accepts the ball's
 //! colour and the patches' together.
 
+use crate::detection::ballnet::BallNet;
 use crate::detection::detect::CandidateClassifier;
 use crate::detection::hog::hog;
 use crate::detection::hough::Circle;
@@ -76,5 +77,32 @@ impl CandidateClassifier for BallClassifier {
             return None;
         }
         self.svm_probability(image, circle)
+    }
+}
+
+/// The ball network: a probability for any ball colour, and the ball's refined circle.
+#[derive(Debug, Clone)]
+pub struct NetClassifier {
+    net: BallNet,
+}
+
+impl NetClassifier {
+    pub fn new(net: BallNet) -> Self {
+        NetClassifier { net }
+    }
+
+    pub fn net(&self) -> &BallNet {
+        &self.net
+    }
+}
+
+impl CandidateClassifier for NetClassifier {
+    fn probability(&self, image: &RgbImage, circle: &Circle) -> Option<f64> {
+        self.judge(image, circle).map(|(p, _)| p)
+    }
+
+    fn judge(&self, image: &RgbImage, circle: &Circle) -> Option<(f64, Circle)> {
+        let v = self.net.judge(image, circle)?;
+        Some((v.probability(), v.refine(circle)))
     }
 }

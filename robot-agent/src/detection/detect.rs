@@ -48,6 +48,8 @@ pub enum DetectError {
     Pattern(#[from] PatternError),
     #[error(transparent)]
     Colour(#[from] ColourError),
+    #[error(transparent)]
+    Appearance(#[from] crate::detection::contrast::AppearanceError),
     #[error("adapt_rate {0} is outside [0, 1]")]
     BadRate(f64),
 }
@@ -68,6 +70,12 @@ impl StageClock for NoClock {
 /// Judges a circle: the probability that it is the ball, or `None` to reject it outright.
 pub trait CandidateClassifier {
     fn probability(&self, image: &RgbImage, circle: &Circle) -> Option<f64>;
+
+    /// The probability and the ball's circle as the classifier sees it (a classifier
+    /// that regresses the ball's centre and radius refines the proposal's).
+    fn judge(&self, image: &RgbImage, circle: &Circle) -> Option<(f64, Circle)> {
+        self.probability(image, circle).map(|p| (p, *circle))
+    }
 }
 
 /// Accepts every circle with its Hough score as the probability (no learned filter).
@@ -78,6 +86,68 @@ impl CandidateClassifier for HoughOnly {
     fn probability(&self, _image: &RgbImage, circle: &Circle) -> Option<f64> {
         Some(circle.score.clamp(0.0, 1.0))
     }
+}
+
+/// Two circles of nearly the same place and size: the centres less than half the larger
+/// radius apart, the radii within a factor of two.
+fn same_place(a: &Circle, b: &Circle) -> bool {
+    let d = (a.center_px[0] - b.center_px[0]).hypot(a.center_px[1] - b.center_px[1]);
+    let (lo, hi) = (a.radius_px.min(b.radius_px), a.radius_px.max(b.radius_px));
+    d < 0.5 * hi && hi < 2.0 * lo
+}
+
+/// One proposal after the classifier.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Judged {
+    /// Its index in [`Proposals::items`].
+    pub index: usize,
+    /// Its candidate, or `None` when the classifier refused it.
+    pub candidate: Option<Candidate>,
+    /// A more probable candidate already covers its ball.
+    pub repeat: bool,
+}
+
+/// Every proposal through the classifier, the scored ones most probable first, then the
+/// refused ones. A proposal without a local view takes the classifier's refined circle; a
+/// candidate whose centre lies within a more probable candidate's circle is a repeat.
+pub fn judge(
+    proposals: &Proposals,
+    image: &RgbImage,
+    classifier: &dyn CandidateClassifier,
+) -> Vec<Judged> {
+    let mut judged: Vec<Judged> = proposals
+        .items
+        .iter()
+        .enumerate()
+        .map(|(index, p)| Judged {
+            index,
+            candidate: classifier.judge(proposals.image(p, image), &p.local).map(
+                |(probability, refined)| Candidate {
+                    circle: if p.view.is_none() { refined } else { p.frame },
+                    probability,
+                    angular_radius_rad: p.angular_radius_rad,
+                    sparse_blob: p.sparse_blob,
+                },
+            ),
+            repeat: false,
+        })
+        .collect();
+    let key = |j: &Judged| j.candidate.map_or(f64::NEG_INFINITY, |c| c.probability);
+    judged.sort_by(|a, b| key(b).total_cmp(&key(a)));
+    let mut kept: Vec<Circle> = Vec::new();
+    for j in &mut judged {
+        if let Some(c) = j.candidate {
+            j.repeat = kept.iter().any(|k| {
+                let d = (k.center_px[0] - c.circle.center_px[0])
+                    .hypot(k.center_px[1] - c.circle.center_px[1]);
+                d < k.radius_px.max(c.circle.radius_px)
+            });
+            if !j.repeat {
+                kept.push(c.circle);
+            }
+        }
+    }
+    judged
 }
 
 /// A circle that passed the classifier.
@@ -143,6 +213,7 @@ impl Detector {
         config.hough.check()?;
         config.pattern.check()?;
         config.colour_check.check()?;
+        config.appearance.check()?;
         if !(0.0..=1.0).contains(&config.adapt_rate) {
             return Err(DetectError::BadRate(config.adapt_rate));
         }
@@ -213,7 +284,45 @@ impl Detector {
     /// perspective view ([`LocalView`]), where a ball is round even at the edge of a
     /// fisheye image; proposals then carry that view and their angular radius. Without a
     /// model the frame is searched as it is.
+    ///
+    /// With the appearance proposer ([`DetectorConfig::proposer`]), the centre-surround
+    /// proposals of the whole frame follow (stage `appearance`), in frame pixels without a
+    /// view, less those that repeat a colour proposal.
     pub fn propose(
+        &self,
+        image: &RgbImage,
+        model: Option<&CameraModel>,
+        clock: &mut dyn StageClock,
+    ) -> Result<Proposals, DetectError> {
+        let mut proposals = if self.config.proposer.colour() {
+            self.propose_colour(image, model, clock)?
+        } else {
+            Proposals::default()
+        };
+        if self.config.proposer.appearance() {
+            let found = crate::detection::contrast::propose(image, &self.config.appearance);
+            let colour = proposals.items.len();
+            for circle in found {
+                let repeats = proposals.items[..colour]
+                    .iter()
+                    .any(|p| same_place(&p.frame, &circle));
+                if !repeats {
+                    proposals.items.push(Proposal {
+                        frame: circle,
+                        local: circle,
+                        view: None,
+                        angular_radius_rad: None,
+                        sparse_blob: false,
+                    });
+                }
+            }
+            clock.mark("appearance");
+        }
+        Ok(proposals)
+    }
+
+    /// The colour path's proposals.
+    fn propose_colour(
         &self,
         image: &RgbImage,
         model: Option<&CameraModel>,
@@ -437,20 +546,11 @@ impl Detector {
         clock: &mut dyn StageClock,
     ) -> Result<Vec<Candidate>, DetectError> {
         let proposals = self.propose(image, model, clock)?;
-        let mut candidates: Vec<Candidate> = proposals
-            .items
-            .iter()
-            .filter_map(|p| {
-                let probability = classifier.probability(proposals.image(p, image), &p.local)?;
-                Some(Candidate {
-                    circle: p.frame,
-                    probability,
-                    angular_radius_rad: p.angular_radius_rad,
-                    sparse_blob: p.sparse_blob,
-                })
-            })
+        let candidates = judge(&proposals, image, classifier)
+            .into_iter()
+            .filter(|j| !j.repeat)
+            .filter_map(|j| j.candidate)
             .collect();
-        candidates.sort_by(|a, b| b.probability.total_cmp(&a.probability));
         clock.mark("classify");
         Ok(candidates)
     }

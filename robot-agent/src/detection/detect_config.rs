@@ -2,16 +2,44 @@
 //! patterned ball's mask and the classifier's colour check. Every key is optional in a
 //! settings file; a table with some keys keeps the defaults of the others.
 
+use crate::detection::contrast::AppearanceConfig;
 use crate::detection::hough::HoughConfig;
 use crate::detection::hsv::HsvThresholds;
 use crate::detection::kmeans::ColourCheckConfig;
 use crate::detection::two_colour::PatternConfig;
 use serde::{Deserialize, Serialize};
 
+/// Where the detector's candidates come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Proposer {
+    /// The seed's path: the colour window's blobs and the circular Hough transform.
+    Colour,
+    /// Compact blobs that stand out from their surroundings, of any colour
+    /// ([`crate::detection::contrast`]).
+    Appearance,
+    /// Both, the colour path's first.
+    Both,
+}
+
+impl Proposer {
+    pub fn colour(self) -> bool {
+        matches!(self, Proposer::Colour | Proposer::Both)
+    }
+
+    pub fn appearance(self) -> bool {
+        matches!(self, Proposer::Appearance | Proposer::Both)
+    }
+}
+
 /// The detector's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
+    /// Where candidates come from.
+    pub proposer: Proposer,
+    /// The appearance proposals' settings.
+    pub appearance: AppearanceConfig,
     /// The ball's colour window.
     #[serde(deserialize_with = "thresholds_over_default")]
     pub thresholds: HsvThresholds,
@@ -54,6 +82,8 @@ impl Default for DetectorConfig {
     /// An orange ball under ordinary indoor light.
     fn default() -> Self {
         DetectorConfig {
+            proposer: Proposer::Colour,
+            appearance: AppearanceConfig::default(),
             thresholds: HsvThresholds {
                 hue_lo_deg: 8.0,
                 hue_hi_deg: 42.0,

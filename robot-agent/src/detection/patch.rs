@@ -85,6 +85,25 @@ impl RgbPatch {
         &self.data
     }
 
+    /// A colour patch of `3 × 32 × 32` row-major RGB8 bytes; fails on a wrong length.
+    pub fn from_bytes(data: Vec<u8>) -> Result<Self, PatchError> {
+        if data.len() != 3 * PATCH_PIXELS {
+            return Err(PatchError::Length(data.len() / 3));
+        }
+        Ok(RgbPatch { data })
+    }
+
+    /// A colour patch whose pixel at `(x, y)` is `f(x, y)`.
+    pub fn from_fn_rgb(mut f: impl FnMut(usize, usize) -> [u8; 3]) -> Self {
+        let mut data = Vec::with_capacity(3 * PATCH_PIXELS);
+        for y in 0..PATCH_SIDE_PX {
+            for x in 0..PATCH_SIDE_PX {
+                data.extend_from_slice(&f(x, y));
+            }
+        }
+        RgbPatch { data }
+    }
+
     /// The greyscale patch of this colour patch.
     pub fn to_grey(&self) -> Patch {
         let grey = self

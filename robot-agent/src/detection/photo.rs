@@ -12,7 +12,7 @@
 //! searched as it is, which is right for an ordinary, nearly distortion-free camera.
 
 use crate::calibration::camera::CameraModel;
-use crate::detection::detect::{CandidateClassifier, DetectError, Detector, StageClock};
+use crate::detection::detect::{CandidateClassifier, DetectError, Detector, StageClock, judge};
 use crate::detection::hough::Circle;
 use crate::image::RgbImage;
 use thiserror::Error;
@@ -25,6 +25,8 @@ pub enum PhotoRejection {
     ColourCheck,
     /// Its probability is below the validation's `min_probability`.
     LowProbability,
+    /// Its ball is a more probable candidate's (the same ball proposed twice).
+    Repeat,
     /// It passed, but a more probable candidate was published.
     RunnerUp,
 }
@@ -35,6 +37,7 @@ impl PhotoRejection {
         match self {
             PhotoRejection::ColourCheck => "colour_check",
             PhotoRejection::LowProbability => "low_probability",
+            PhotoRejection::Repeat => "repeat",
             PhotoRejection::RunnerUp => "runner_up",
         }
     }
@@ -61,8 +64,8 @@ impl PhotoCandidate {
 }
 
 /// Every candidate of a photo: the scored ones most probable first (the first of them
-/// published when its probability reaches `min_probability`), then those the classifier
-/// refused, largest first.
+/// published when its probability reaches `min_probability`), then repeats of their balls,
+/// then those the classifier refused, largest first.
 pub fn detect_photo(
     detector: &Detector,
     classifier: &dyn CandidateClassifier,
@@ -74,17 +77,28 @@ pub fn detect_photo(
     let proposals = detector.propose(image, model, clock)?;
     let mut scored = Vec::new();
     let mut refused = Vec::new();
-    for p in &proposals.items {
-        let probability = classifier.probability(proposals.image(p, image), &p.local);
-        let candidate = PhotoCandidate {
-            circle: p.frame,
-            probability,
-            angular_radius_rad: p.angular_radius_rad,
-            rejection: Some(PhotoRejection::ColourCheck),
-        };
-        match probability {
-            Some(_) => scored.push(candidate),
-            None => refused.push(candidate),
+    let mut repeats = Vec::new();
+    for j in judge(&proposals, image, classifier) {
+        let p = &proposals.items[j.index];
+        match j.candidate {
+            Some(c) if j.repeat => repeats.push(PhotoCandidate {
+                circle: c.circle,
+                probability: Some(c.probability),
+                angular_radius_rad: c.angular_radius_rad,
+                rejection: Some(PhotoRejection::Repeat),
+            }),
+            Some(c) => scored.push(PhotoCandidate {
+                circle: c.circle,
+                probability: Some(c.probability),
+                angular_radius_rad: c.angular_radius_rad,
+                rejection: Some(PhotoRejection::ColourCheck),
+            }),
+            None => refused.push(PhotoCandidate {
+                circle: p.frame,
+                probability: None,
+                angular_radius_rad: p.angular_radius_rad,
+                rejection: Some(PhotoRejection::ColourCheck),
+            }),
         }
     }
     let key = |c: &PhotoCandidate| c.probability.unwrap_or(f64::NEG_INFINITY);
@@ -101,6 +115,7 @@ pub fn detect_photo(
         published |= passes;
     }
     clock.mark("classify");
+    scored.extend(repeats);
     scored.extend(refused);
     Ok(scored)
 }

@@ -107,6 +107,32 @@ pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, ImageIoError> {
     Ok(paths)
 }
 
+/// The PNG and JPEG files under `dir` and its subfolders (hidden folders skipped), sorted
+/// by path: a data set of several events, one folder each.
+pub fn image_files_recursive(dir: &Path) -> Result<Vec<PathBuf>, ImageIoError> {
+    let mut paths = image_files(dir)?;
+    let read = |source| ImageIoError::Read {
+        path: dir.to_path_buf(),
+        source,
+    };
+    let mut subdirs = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(read)? {
+        let path = entry.map_err(read)?.path();
+        let hidden = path
+            .file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with('.'));
+        if path.is_dir() && !hidden {
+            subdirs.push(path);
+        }
+    }
+    subdirs.sort();
+    for d in subdirs {
+        paths.extend(image_files_recursive(&d)?);
+    }
+    paths.sort();
+    Ok(paths)
+}
+
 /// Loads a PNG or JPEG file as an RGB image.
 pub fn load_rgb(path: &Path) -> Result<RgbImage, ImageIoError> {
     decode_rgb(&read(path)?).map_err(|e| with_path(path, e))
