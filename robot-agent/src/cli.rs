@@ -7,8 +7,12 @@
 //! - [`labelled`]: a folder of photos with labelled ball boxes and the camera to read
 //!   them with.
 //! - [`labelled_patches`]: training patches cut from labelled photos.
+//! - [`net_train`]: the ball network from labelled photos, events held out whole.
+//! - [`evaluate`]: the detector scored on labelled photos, overall and per folder.
 
 pub mod calibrate;
+pub mod evaluate;
 pub mod labelled;
 pub mod labelled_patches;
+pub mod net_train;
 pub mod train;

@@ -25,11 +25,16 @@
 //!   from their surroundings, by centre-surround filters over an image pyramid.
 //! - [`ballnet`]: the ball network, a small CNN on a candidate's colour patch giving the
 //!   ball's probability and its refined centre and radius, with its own forward pass.
+//! - [`ballnet_data`]: the network's training samples from labelled photos, and their
+//!   augmentation.
+//! - [`ballnet_train`]: training the network on a CPU, and its weights file.
 //! - [`detect`]: one frame to ball candidates through the stages above.
 //! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
 //!   what became of it, and the photo with the candidates drawn.
 
 pub mod ballnet;
+pub mod ballnet_data;
+pub mod ballnet_train;
 pub mod blob_circle;
 pub mod classifier;
 pub mod components;

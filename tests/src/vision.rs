@@ -192,7 +192,7 @@ pub fn shipped_agent(id: &str, run: &SimRun) -> anyhow::Result<Agent> {
         run.pitch.clone(),
         config,
         [model, model],
-        Box::new(classifier),
+        classifier,
     )?)
 }
 

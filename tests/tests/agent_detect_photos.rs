@@ -42,6 +42,8 @@ fn write_png(path: &Path, image: &RgbImage) {
 fn detect(args: &[&str]) -> Output {
     Command::new(AGENT_CLI)
         .arg("detect")
+        // Rendered MiRo frames: the MiRo's colour path.
+        .args(["--detector", "colour"])
         .args(args)
         .output()
         .unwrap()

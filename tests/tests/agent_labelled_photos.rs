@@ -118,6 +118,8 @@ fn evaluate_and_train_on_a_labelled_folder() {
         let plot = p(&format!("{labels}.png"));
         let stdout = agent(&[
             "evaluate",
+            "--detector",
+            "colour",
             "--images",
             &p("images"),
             "--labels",
@@ -165,6 +167,8 @@ fn evaluate_and_train_on_a_labelled_folder() {
     let model = p("model.json");
     let stdout = agent(&[
         "train",
+        "--model",
+        "hog-svm",
         "--images",
         &p("images"),
         "--labels",
@@ -186,6 +190,8 @@ fn evaluate_and_train_on_a_labelled_folder() {
     let json = p("own-model.json");
     agent(&[
         "evaluate",
+        "--detector",
+        "colour",
         "--images",
         &p("images"),
         "--labels",
@@ -201,7 +207,15 @@ fn evaluate_and_train_on_a_labelled_folder() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let recall = report["recall_published"].as_f64().unwrap();
     assert!(recall >= 0.5, "recall with the trained model {recall}");
-    let lines = agent(&["detect", "--images", &p("images"), "--classifier", &model]);
+    let lines = agent(&[
+        "detect",
+        "--detector",
+        "colour",
+        "--images",
+        &p("images"),
+        "--classifier",
+        &model,
+    ]);
     assert_eq!(lines.lines().count(), with_ball + without, "{lines}");
 
     // A file that is not a model is refused, naming it.

@@ -188,7 +188,7 @@ fn found(frames: &[(RgbImage, [f64; 2], f64)], config: DetectorConfig) -> usize 
         .iter()
         .filter(|(image, c, r)| {
             let found = detector
-                .detect(image, Some(&model), &classifier, &mut NoClock)
+                .detect(image, Some(&model), classifier.as_ref(), &mut NoClock)
                 .unwrap();
             found.first().is_some_and(|b| {
                 let p = b.circle.center_px;

@@ -24,8 +24,14 @@ fn held_out_and_real_photos_clear_their_floors() {
     };
     let detector = robot_agent::detection::detect::DetectorConfig::default();
     let classifier = robot_agent::builtin::classifier(&detector).expect("shipped classifier");
-    let results = evaluate_photos(&cfg, &detector, &classifier, 0.5, &Progress::hidden(0))
-        .expect("photo evaluation");
+    let results = evaluate_photos(
+        &cfg,
+        &detector,
+        classifier.as_ref(),
+        0.5,
+        &Progress::hidden(0),
+    )
+    .expect("photo evaluation");
     let by_name = |n: &str| {
         results
             .iter()

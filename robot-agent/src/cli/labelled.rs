@@ -20,10 +20,10 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, clap::Args)]
 pub struct LabelledArgs {
     /// Folder of labelled photographs (PNG or JPEG), subfolders included.
-    #[arg(long, requires = "labels")]
+    #[arg(long)]
     pub images: Option<PathBuf>,
     /// Folder of label files named after the images, in the same subfolders (or the
-    /// images' own folder): Pascal VOC `.xml` or YOLO `.txt`.
+    /// images' own folder): Pascal VOC `.xml` or YOLO `.txt`. Default: beside the images.
     #[arg(long, requires = "images")]
     pub labels: Option<PathBuf>,
     /// A YOLO class id that is a ball (repeatable). Default: from a classes.txt, obj.names
@@ -173,9 +173,10 @@ impl LabelledArgs {
 
 impl LabelledFolder {
     pub fn open(args: &LabelledArgs) -> Result<Self> {
-        let (Some(images), Some(labels)) = (&args.images, &args.labels) else {
-            bail!("give the labelled photos as --images DIR --labels DIR");
+        let Some(images) = &args.images else {
+            bail!("give the labelled photos as --images DIR [--labels DIR]");
         };
+        let labels = args.labels.as_ref().unwrap_or(images);
         let ball_names = if args.ball_names.is_empty() {
             BallNames::default()
         } else {

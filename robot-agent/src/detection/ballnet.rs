@@ -388,13 +388,14 @@ mod tests {
     }
 
     fn shapes() -> Vec<(&'static str, Vec<usize>)> {
+        let [(i1, o1), (i2, o2), (i3, o3)] = CONVOLUTIONS;
         vec![
-            ("conv1.weight", vec![8, 3, 3, 3]),
-            ("conv1.bias", vec![8]),
-            ("conv2.weight", vec![16, 8, 3, 3]),
-            ("conv2.bias", vec![16]),
-            ("conv3.weight", vec![16, 16, 3, 3]),
-            ("conv3.bias", vec![16]),
+            ("conv1.weight", vec![o1, i1, 3, 3]),
+            ("conv1.bias", vec![o1]),
+            ("conv2.weight", vec![o2, i2, 3, 3]),
+            ("conv2.bias", vec![o2]),
+            ("conv3.weight", vec![o3, i3, 3, 3]),
+            ("conv3.bias", vec![o3]),
             ("fc1.weight", vec![HIDDEN, FLAT]),
             ("fc1.bias", vec![HIDDEN]),
             ("fc2.weight", vec![OUTPUTS, HIDDEN]),

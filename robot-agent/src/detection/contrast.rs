@@ -34,15 +34,19 @@ pub struct AppearanceConfig {
     pub min_radius_px: f64,
     /// Nor above this.
     pub max_radius_px: f64,
+    /// The weight of a brightness difference beside a colour difference (1: plain RGB
+    /// distance; below 1 favours coloured balls over pale lines and shadows).
+    pub luminance_weight: f64,
 }
 
 impl Default for AppearanceConfig {
     fn default() -> Self {
         AppearanceConfig {
-            max_candidates: 24,
+            max_candidates: 48,
             min_contrast: 0.05,
             min_radius_px: 2.0,
             max_radius_px: 160.0,
+            luminance_weight: 0.1,
         }
     }
 }
@@ -123,20 +127,29 @@ impl Level {
         })
     }
 
-    /// The integral image, 3 channels interleaved, with a zero first row and column.
-    fn integral(&self) -> Vec<u32> {
+    /// The integral images of the level's opponent channels, one plane after another,
+    /// each with a zero first row and column: brightness `R + G + B`, red-green `R - G`,
+    /// yellow-blue `R + G - 2 B`, all exact in integers.
+    fn integral(&self) -> Vec<i32> {
         let (w, h) = (self.width, self.height);
         let iw = w + 1;
-        let mut sums = vec![0u32; 3 * iw * (h + 1)];
+        let plane = iw * (h + 1);
+        let mut sums = vec![0i32; 3 * plane];
         for y in 0..h {
-            let mut row = [0u32; 3];
+            let mut row = [0i32; 3];
             let src = &self.data[3 * y * w..][..3 * w];
-            let (above, here) = sums.split_at_mut(3 * (y + 1) * iw);
-            let above = &above[3 * y * iw..];
             for x in 0..w {
-                for k in 0..3 {
-                    row[k] += u32::from(src[3 * x + k]);
-                    here[3 * (x + 1) + k] = above[3 * (x + 1) + k] + row[k];
+                let (r, g, b) = (
+                    i32::from(src[3 * x]),
+                    i32::from(src[3 * x + 1]),
+                    i32::from(src[3 * x + 2]),
+                );
+                row[0] += r + g + b;
+                row[1] += r - g;
+                row[2] += r + g - 2 * b;
+                for (k, v) in row.iter().enumerate() {
+                    let at = k * plane + (y + 1) * iw + x + 1;
+                    sums[at] = sums[at - iw] + v;
                 }
             }
         }
@@ -153,47 +166,161 @@ struct Peak {
     contrast: f64,
 }
 
-/// The centre-surround response of every pixel of a level for one filter size: the
-/// distance between the mean colour of the square of half-side `a` and that of its ring out
-/// to half-side `b`, both clipped to the level.
-fn responses(sums: &[u32], w: usize, h: usize, a: usize, b: usize) -> Vec<f32> {
-    let iw = w + 1;
-    let boxsum = |x0: usize, y0: usize, x1: usize, y1: usize| -> [u32; 3] {
-        // Sum over [x0, x1) × [y0, y1).
-        let (p, q, r, s) = (
-            3 * (y0 * iw + x0),
-            3 * (y0 * iw + x1),
-            3 * (y1 * iw + x0),
-            3 * (y1 * iw + x1),
+/// The responses of one row's interior pixels (every box inside the level), written as
+/// whole-row slice arithmetic so the compiler can vectorise it; the same values as the
+/// per-pixel path of [`responses`].
+#[allow(clippy::too_many_arguments)]
+fn interior_row(
+    sums: &[i32],
+    [iw, plane]: [usize; 2],
+    y: usize,
+    [a, b]: [usize; 2],
+    xs: std::ops::Range<usize>,
+    weights: [f32; 3],
+    min2: f32,
+    out: &mut [f32],
+) {
+    let n = xs.len();
+    // A box's per-channel means along the row: columns [x + x0, x + x1) and rows
+    // [y0, y1) for every x of `xs` (every box lies inside the level).
+    let means = |x0: isize, x1: isize, y0: usize, y1: usize| -> [Vec<f32>; 3] {
+        let inv = 1.0 / ((x1 - x0) as usize * (y1 - y0)) as f32;
+        let (c0, c1) = (
+            xs.start.saturating_add_signed(x0),
+            xs.start.saturating_add_signed(x1),
         );
-        [
-            sums[s] + sums[p] - sums[q] - sums[r],
-            sums[s + 1] + sums[p + 1] - sums[q + 1] - sums[r + 1],
-            sums[s + 2] + sums[p + 2] - sums[q + 2] - sums[r + 2],
-        ]
+        std::array::from_fn(|k| {
+            let o = k * plane;
+            let top = &sums[o + y0 * iw..][..iw];
+            let bottom = &sums[o + y1 * iw..][..iw];
+            top[c0..c0 + n]
+                .iter()
+                .zip(&top[c1..c1 + n])
+                .zip(bottom[c0..c0 + n].iter().zip(&bottom[c1..c1 + n]))
+                .map(|((&tl, &tr), (&bl, &br))| (br - bl - tr + tl) as f32 * inv)
+                .collect()
+        })
     };
+    let (ai, bi) = (a as isize, b as isize);
+    let centre = means(-ai, ai + 1, y - a, y + a + 1);
+    let sides = [
+        means(-bi, bi + 1, y - b, y - a),
+        means(-bi, bi + 1, y + a + 1, y + b + 1),
+        means(-bi, -ai, y - a, y + a + 1),
+        means(ai + 1, bi + 1, y - a, y + a + 1),
+    ];
+    let mut least = vec![f32::INFINITY; n];
+    for side in &sides {
+        for (i, l) in least.iter_mut().enumerate() {
+            let d0 = centre[0][i] - side[0][i];
+            let d1 = centre[1][i] - side[1][i];
+            let d2 = centre[2][i] - side[2][i];
+            let d = weights[0] * d0 * d0 + weights[1] * d1 * d1 + weights[2] * d2 * d2;
+            *l = l.min(d);
+        }
+    }
+    for (o, l) in out[xs].iter_mut().zip(&least) {
+        *o = if *l >= min2 { l.sqrt() / 255.0 } else { 0.0 };
+    }
+}
+
+/// The all-round centre-surround response of every pixel of a level for one filter size:
+/// the mean colour of the square of half-side `a` against the mean of each of the four
+/// sides of its ring out to half-side `b` (above, below, left, right), the smallest of the
+/// four distances. A ball differs from its surroundings on every side; an edge or a line
+/// through the square does not. The distance weighs the brightness difference by
+/// `luminance_weight` beside the two colour-opponent differences (red-green,
+/// yellow-blue), so a pale line or a shadow counts less than a coloured disc. Responses
+/// below `min` are left at zero, which lets most floor pixels stop after one side.
+#[allow(clippy::too_many_arguments)]
+fn responses(
+    sums: &[i32],
+    w: usize,
+    h: usize,
+    a: usize,
+    b: usize,
+    luminance_weight: f32,
+    min: f32,
+    fast_interior: bool,
+) -> Vec<f32> {
+    let iw = w + 1;
+    let plane = iw * (h + 1);
+    let boxsum = |x0: usize, y0: usize, x1: usize, y1: usize| -> Option<[f32; 4]> {
+        // Sums over [x0, x1) × [y0, y1), and the pixel count.
+        if x1 <= x0 || y1 <= y0 {
+            return None;
+        }
+        let (p, q, r, s) = (y0 * iw + x0, y0 * iw + x1, y1 * iw + x0, y1 * iw + x1);
+        let sum = |k: usize| {
+            let o = k * plane;
+            (sums[o + s] + sums[o + p] - sums[o + q] - sums[o + r]) as f32
+        };
+        Some([sum(0), sum(1), sum(2), ((x1 - x0) * (y1 - y0)) as f32])
+    };
+    // In units of 255: brightness (R+G+B)/3 weighed, red-green, yellow-blue (R+G)/2 - B.
+    let weights = [luminance_weight * luminance_weight / 3.0, 1.0, 0.25];
+    let min2 = (min * 255.0) * (min * 255.0);
     let mut out = vec![0f32; w * h];
+    let (interior_x, interior_y) = if fast_interior {
+        (b..w.saturating_sub(b), b..h.saturating_sub(b))
+    } else {
+        (0..0, 0..0)
+    };
+    if !interior_x.is_empty() {
+        for y in interior_y.clone() {
+            interior_row(
+                sums,
+                [iw, plane],
+                y,
+                [a, b],
+                interior_x.clone(),
+                weights,
+                min2,
+                &mut out[y * w..][..w],
+            );
+        }
+    }
     for y in 0..h {
         let (cy0, cy1) = (y.saturating_sub(a), (y + a + 1).min(h));
         let (sy0, sy1) = (y.saturating_sub(b), (y + b + 1).min(h));
         for x in 0..w {
-            let (cx0, cx1) = (x.saturating_sub(a), (x + a + 1).min(w));
-            let (sx0, sx1) = (x.saturating_sub(b), (x + b + 1).min(w));
-            let c = boxsum(cx0, cy0, cx1, cy1);
-            let s = boxsum(sx0, sy0, sx1, sy1);
-            let nc = ((cx1 - cx0) * (cy1 - cy0)) as f32;
-            let ns = ((sx1 - sx0) * (sy1 - sy0)) as f32 - nc;
-            if ns < 1.0 {
+            if interior_y.contains(&y) && interior_x.contains(&x) {
                 continue;
             }
-            let mut d2 = 0.0f32;
-            for k in 0..3 {
-                let mc = c[k] as f32 / nc;
-                let ms = (s[k] - c[k]) as f32 / ns;
-                let d = (mc - ms) / 255.0;
-                d2 += d * d;
+            let (cx0, cx1) = (x.saturating_sub(a), (x + a + 1).min(w));
+            let (sx0, sx1) = (x.saturating_sub(b), (x + b + 1).min(w));
+            let Some(c) = boxsum(cx0, cy0, cx1, cy1) else {
+                continue;
+            };
+            let c = [c[0] / c[3], c[1] / c[3], c[2] / c[3]];
+            // Sides cut off by the frame's edge are left out: a ball half out of the
+            // picture still differs from the floor on the sides that remain.
+            let sides = [
+                (sx0, sy0, sx1, cy0),
+                (sx0, cy1, sx1, sy1),
+                (sx0, cy0, cx0, cy1),
+                (cx1, cy0, sx1, cy1),
+            ];
+            let mut least = f32::INFINITY;
+            let mut seen = 0;
+            for (x0, y0, x1, y1) in sides {
+                let Some(side) = boxsum(x0, y0, x1, y1) else {
+                    continue;
+                };
+                let mut d2 = 0.0;
+                for k in 0..3 {
+                    let d = c[k] - side[k] / side[3];
+                    d2 += weights[k] * d * d;
+                }
+                least = least.min(d2);
+                seen += 1;
+                if least < min2 {
+                    break;
+                }
             }
-            out[y * w + x] = d2.sqrt();
+            if seen >= 2 && least >= min2 {
+                out[y * w + x] = least.sqrt() / 255.0;
+            }
         }
     }
     out
@@ -253,7 +380,16 @@ pub fn propose(image: &RgbImage, config: &AppearanceConfig) -> Vec<Circle> {
             if radius_px < config.min_radius_px || radius_px > config.max_radius_px {
                 continue;
             }
-            let resp = responses(&sums, l.width, l.height, a, 2 * a + 1);
+            let resp = responses(
+                &sums,
+                l.width,
+                l.height,
+                a,
+                2 * a + 1,
+                config.luminance_weight as f32,
+                config.min_contrast as f32,
+                true,
+            );
             peaks(
                 &resp,
                 l.width,
@@ -306,6 +442,31 @@ mod tests {
             }
         }
         img
+    }
+
+    #[test]
+    fn the_row_path_gives_the_pixel_paths_responses() {
+        let mut rng = proto::rng::Rng::new(4);
+        let mut img = RgbImage::filled(61, 47, [0, 0, 0]).unwrap();
+        for y in 0..47 {
+            for x in 0..61 {
+                img.set_pixel(x, y, [0; 3].map(|_| rng.index(256) as u8));
+            }
+        }
+        let level = Level {
+            data: img.data().to_vec(),
+            width: 61,
+            height: 47,
+        };
+        let sums = level.integral();
+        for a in CENTRE_HALF_SIDES {
+            let fast = responses(&sums, 61, 47, a, 2 * a + 1, 0.3, 0.02, true);
+            let slow = responses(&sums, 61, 47, a, 2 * a + 1, 0.3, 0.02, false);
+            assert!(slow.iter().filter(|&&v| v > 0.0).count() > 100);
+            for (k, (f, s)) in fast.iter().zip(&slow).enumerate() {
+                assert!((f - s).abs() < 1e-5, "pixel {k}: {f} vs {s}");
+            }
+        }
     }
 
     #[test]

@@ -25,7 +25,7 @@ use crate::detection::blob_circle::{
     blob_circle, blob_size_px, is_roundish, ring_share, shrink, unshrink,
 };
 use crate::detection::components::{BoundingBox, Component, joined_components};
-pub use crate::detection::detect_config::DetectorConfig;
+pub use crate::detection::detect_config::{ClassifierKind, DetectorConfig, Proposer};
 use crate::detection::hough::{Circle, HoughConfig, HoughError};
 use crate::detection::hsv::{HsvError, HsvThresholds, MaskLut};
 use crate::detection::kmeans::ColourError;

@@ -33,11 +33,24 @@ impl Proposer {
 }
 
 /// The detector's settings.
+/// Which classifier judges the proposals when no model file is given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ClassifierKind {
+    /// The shipped ball network (any ball colour; refines the circle).
+    Net,
+    /// The shipped HOG + SVM filter with the colour check (the colour proposer's partner).
+    HogSvm,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
     /// Where candidates come from.
     pub proposer: Proposer,
+    /// The shipped classifier that judges them (a model file given on the command line
+    /// takes its place).
+    pub classifier: ClassifierKind,
     /// The appearance proposals' settings.
     pub appearance: AppearanceConfig,
     /// The ball's colour window.
@@ -83,6 +96,7 @@ impl Default for DetectorConfig {
     fn default() -> Self {
         DetectorConfig {
             proposer: Proposer::Colour,
+            classifier: ClassifierKind::HogSvm,
             appearance: AppearanceConfig::default(),
             thresholds: HsvThresholds {
                 hue_lo_deg: 8.0,

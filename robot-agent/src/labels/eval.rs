@@ -114,8 +114,60 @@ pub struct LabelReport {
     pub false_positives: usize,
     pub false_positives_per_image: Option<f64>,
     pub bands: Vec<BandRecall>,
+    /// Labelled balls the published detection is on, over all labelled balls (an image
+    /// publishes one detection, so a photo with two balls finds at most one).
+    pub ball_recall: Option<f64>,
+    /// Image recall and precision of the best candidate as the probability threshold
+    /// falls: one point per distinct probability, highest first.
+    pub pr_curve: Vec<PrPoint>,
     pub timing_ms: Option<TimingMs>,
     pub rows: Vec<ImageRow>,
+}
+
+/// One point of the precision-recall curve: publishing the best candidate when its
+/// probability is at least `threshold`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PrPoint {
+    pub threshold: f64,
+    pub recall: f64,
+    pub precision: f64,
+}
+
+/// The precision-recall curve of rows (see [`LabelReport::pr_curve`]).
+pub fn pr_curve(rows: &[ImageRow]) -> Vec<PrPoint> {
+    let with_ball = rows.iter().filter(|r| !r.balls.is_empty()).count();
+    let mut best: Vec<(f64, bool)> = rows
+        .iter()
+        .filter_map(|r| r.best.map(|b| (b[3], r.best_on_ball)))
+        .collect();
+    best.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (mut published, mut hits) = (0usize, 0usize);
+    let mut out: Vec<PrPoint> = Vec::new();
+    for (k, &(p, on)) in best.iter().enumerate() {
+        published += 1;
+        hits += usize::from(on);
+        if best.get(k + 1).is_some_and(|n| n.0 == p) {
+            continue;
+        }
+        out.push(PrPoint {
+            threshold: p,
+            recall: ratio(hits, with_ball).unwrap_or(0.0),
+            precision: hits as f64 / published as f64,
+        });
+    }
+    out
+}
+
+impl LabelReport {
+    /// The highest image recall on the curve whose precision is at least `precision`,
+    /// with its threshold.
+    pub fn recall_at_precision(&self, precision: f64) -> Option<PrPoint> {
+        self.pr_curve
+            .iter()
+            .filter(|p| p.precision >= precision)
+            .max_by(|a, b| a.recall.total_cmp(&b.recall))
+            .copied()
+    }
 }
 
 /// Scores images one at a time.
@@ -219,6 +271,11 @@ impl LabelEval {
             precision: ratio(published_on_ball, published),
             false_positives,
             false_positives_per_image: ratio(false_positives, self.rows.len()),
+            ball_recall: ratio(
+                self.band_balls.iter().map(|b| b[1]).sum(),
+                self.band_balls.iter().map(|b| b[0]).sum(),
+            ),
+            pr_curve: pr_curve(&self.rows),
             bands,
             timing_ms,
             rows: self.rows.clone(),
@@ -259,6 +316,22 @@ impl std::fmt::Display for LabelReport {
             pct(self.recall_any),
             self.found_any
         )?;
+        writeln!(
+            f,
+            "balls found by the published detection: {}",
+            pct(self.ball_recall)
+        )?;
+        for target in [0.97, 0.9] {
+            if let Some(p) = self.recall_at_precision(target) {
+                writeln!(
+                    f,
+                    "at precision >= {:.0} %: recall {} (threshold {:.3})",
+                    100.0 * target,
+                    pct(Some(p.recall)),
+                    p.threshold
+                )?;
+            }
+        }
         writeln!(
             f,
             "{:<10} {:>6} {:>10} {:>10}",
@@ -368,6 +441,23 @@ mod tests {
         let text = r.to_string();
         assert!(text.contains("recall 33.3 % (1 of 3)"), "{text}");
         assert!(text.contains("median 2.50 ms, p90 3.70 ms"), "{text}");
+        assert_eq!(r.ball_recall, Some(1.0 / 3.0));
+        // Thresholds 0.9 (a: hit), 0.8 (c: miss), 0.2 (b: hit).
+        let curve: Vec<(f64, f64, f64)> = r
+            .pr_curve
+            .iter()
+            .map(|p| (p.threshold, p.recall, p.precision))
+            .collect();
+        assert_eq!(
+            curve,
+            vec![
+                (0.9, 1.0 / 3.0, 1.0),
+                (0.8, 1.0 / 3.0, 0.5),
+                (0.2, 2.0 / 3.0, 2.0 / 3.0)
+            ]
+        );
+        assert_eq!(r.recall_at_precision(0.6).unwrap().threshold, 0.2);
+        assert_eq!(r.recall_at_precision(0.97).unwrap().threshold, 0.9);
         let json = serde_json::to_string(&r).unwrap();
         assert!(json.contains("\"bands\""));
     }

@@ -15,9 +15,51 @@ use crate::builtin::SIM_CALIBRATION_TOML;
 /// The flag choosing the ball classifier.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct ClassifierArgs {
-    /// A ball classifier made by `robot-agent train` (JSON) instead of the shipped one.
-    #[arg(long = "classifier", value_name = "MODEL.json")]
+    /// A ball classifier made by `robot-agent train` instead of the shipped one: a ball
+    /// network (`.safetensors`) or a HOG + SVM filter (`.json`); `hog-svm` names the
+    /// shipped HOG + SVM filter.
+    #[arg(long = "classifier", value_name = "MODEL")]
     pub classifier: Option<PathBuf>,
+}
+
+/// The detector a photo command runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DetectorPreset {
+    /// Appearance proposals judged by the shipped ball network: any camera, any ball
+    /// colour, no colour calibration.
+    Net,
+    /// Colour proposals judged by the HOG + SVM filter: the MiRo's calibrated colour path.
+    Colour,
+    /// As the `--config` file (or the pipeline's defaults) says.
+    Config,
+}
+
+/// The flag choosing the detector of a photo command.
+#[derive(Debug, Clone, clap::Args)]
+pub struct DetectorArgs {
+    /// Which detector to run.
+    #[arg(long = "detector", value_enum, default_value_t = DetectorPreset::Net)]
+    pub preset: DetectorPreset,
+}
+
+impl DetectorPreset {
+    /// The settings with this preset's proposer and classifier.
+    pub fn apply(self, config: DetectorConfig) -> DetectorConfig {
+        use crate::detection::detect::{ClassifierKind, Proposer};
+        match self {
+            DetectorPreset::Net => DetectorConfig {
+                proposer: Proposer::Appearance,
+                classifier: ClassifierKind::Net,
+                ..config
+            },
+            DetectorPreset::Colour => DetectorConfig {
+                proposer: Proposer::Colour,
+                classifier: ClassifierKind::HogSvm,
+                ..config
+            },
+            DetectorPreset::Config => config,
+        }
+    }
 }
 
 /// The classifier of `model` (the shipped one without it), with the detector's widest
@@ -27,9 +69,22 @@ pub fn classifier(
     model: Option<&Path>,
 ) -> Result<Box<dyn CandidateClassifier + Send + Sync>> {
     let Some(path) = model else {
-        let c = crate::builtin::classifier(detector).context("the built-in ball classifier")?;
-        return Ok(Box::new(c));
+        return crate::builtin::classifier(detector).context("the built-in ball classifier");
     };
+    if path.as_os_str() == "hog-svm" {
+        let c =
+            crate::builtin::svm_classifier(detector).context("the built-in HOG + SVM filter")?;
+        return Ok(Box::new(c));
+    }
+    if path.extension().is_some_and(|e| e == "safetensors") {
+        let bytes = std::fs::read(path)
+            .with_context(|| format!("reading the ball network {}", path.display()))?;
+        let net = crate::detection::ballnet::BallNet::from_safetensors(&bytes)
+            .with_context(|| format!("{} is not a ball network", path.display()))?;
+        return Ok(Box::new(crate::detection::classifier::NetClassifier::new(
+            net,
+        )));
+    }
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("reading the classifier {}", path.display()))?;
     let model = Model::from_json(&text).with_context(|| {

@@ -3,8 +3,11 @@
 //! the targets, and draws PNG plots. With `--vision`, the seed's scenarios are rendered
 //! through the robots' cameras and the real agent pipeline supplies the observations.
 //! With `--tracks`, recorded ball tracks are observed by simulated robots and every method
-//! is scored against the tracks themselves (`tracks_cmd`).
+//! is scored against the tracks themselves (`tracks_cmd`). With `--labelled DIR`, the
+//! agent's detectors are scored on real labelled photos, a row per event (`labelled_cmd`).
 
+#[path = "evaluate/labelled_cmd.rs"]
+mod labelled_cmd;
 #[path = "evaluate/tracks_cmd.rs"]
 mod tracks_cmd;
 
@@ -52,6 +55,8 @@ struct Args {
     jobs: usize,
     #[command(flatten)]
     tracks: tracks_cmd::TrackArgs,
+    #[command(flatten)]
+    labelled: labelled_cmd::LabelledEvalArgs,
     /// Score the detector on photos instead: randomised held-out photos on carpets, on
     /// the rendered pitch and on real backgrounds, and real photographs with and without
     /// balls. Its generated section is marked `<!-- evaluate-photos:begin -->` / `…:end -->`.
@@ -101,6 +106,9 @@ fn run(args: Args) -> anyhow::Result<()> {
             plots: &args.plots,
         };
         return tracks_cmd::run(&args.tracks, &out);
+    }
+    if args.labelled.labelled.is_some() {
+        return labelled_cmd::run(&args.labelled, args.doc.as_deref());
     }
     if args.vision {
         return run_vision(&args);
@@ -272,8 +280,13 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
     let classifier = robot_agent::builtin::classifier(&detector)?;
     let min_probability = robot_agent::pipeline::ValidationConfig::default().min_probability;
     let progress = harness::progress::Progress::new(0, "photos scored");
-    let results =
-        photo_eval::evaluate_photos(&cfg, &detector, &classifier, min_probability, &progress)?;
+    let results = photo_eval::evaluate_photos(
+        &cfg,
+        &detector,
+        classifier.as_ref(),
+        min_probability,
+        &progress,
+    )?;
     progress.finish();
     let text = photo_eval::markdown(&results);
     println!("{text}");

@@ -29,7 +29,7 @@ const LEGEND_PX: u32 = 56;
 /// Share of a group's width taken by its bars.
 const BARS_SHARE: f64 = 0.75;
 
-fn ensure_font() -> Result<()> {
+pub fn ensure_font() -> Result<()> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| register_font(FONT, FontStyle::Normal, FONT_TTF).is_ok());
     ok.then_some(())

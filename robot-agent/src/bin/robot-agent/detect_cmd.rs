@@ -18,6 +18,8 @@ use std::time::{Duration, Instant};
 pub struct DetectArgs {
     #[command(flatten)]
     pub model: robot_agent::runtime::models::ClassifierArgs,
+    #[command(flatten)]
+    pub detector: robot_agent::runtime::models::DetectorArgs,
     /// Folder of photos (PNG or JPEG; other files are left alone).
     #[arg(long)]
     pub images: PathBuf,
@@ -94,7 +96,8 @@ struct Detection {
 }
 
 pub fn run(args: DetectArgs) -> Result<()> {
-    let config = robot_agent::runtime::models::load_config(args.config.as_deref())?;
+    let mut config = robot_agent::runtime::models::load_config(args.config.as_deref())?;
+    config.detector = args.detector.preset.apply(config.detector);
     let detection = Detection {
         detector: Detector::new(config.detector).context("the detector settings")?,
         classifier: robot_agent::runtime::models::classifier(

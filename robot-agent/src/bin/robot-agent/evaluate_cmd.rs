@@ -1,21 +1,21 @@
 //! `robot-agent evaluate`: the agent's detector on a folder of labelled photos, scored
 //! against the labelled ball boxes ([`robot_agent::labels::eval`]).
 //!
-//! Every photo is searched on its own, with the configured colour window (no lighting
-//! adaptation carries from one photo to the next) and without world validation, which
-//! needs a robot's pose.
+//! Every photo is searched on its own ([`robot_agent::cli::evaluate`]); with photos in
+//! subfolders (events), every folder also gets its own row.
 
 use anyhow::{Context, Result};
+use robot_agent::cli::evaluate::{EvaluateOptions, evaluate_items};
 use robot_agent::cli::labelled::{LabelledArgs, LabelledFolder};
-use robot_agent::detection::detect::{Detector, NoClock};
-use robot_agent::labels::eval::{LabelEval, TimingMs};
+use robot_agent::detection::detect::Detector;
 use std::path::PathBuf;
-use std::time::Instant;
 
 #[derive(Debug, clap::Args)]
 pub struct EvaluateArgs {
     #[command(flatten)]
     pub model: robot_agent::runtime::models::ClassifierArgs,
+    #[command(flatten)]
+    pub detector: robot_agent::runtime::models::DetectorArgs,
     #[command(flatten)]
     pub folder: LabelledArgs,
     /// Pipeline settings (TOML: `[detector]`, `[validation]` for `min_probability`).
@@ -27,6 +27,12 @@ pub struct EvaluateArgs {
     /// Also draw recall by ball size as a PNG bar chart.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Also draw the precision-recall curve as a PNG.
+    #[arg(long)]
+    pub pr_plot: Option<PathBuf>,
+    /// A line per photo on stderr.
+    #[arg(long)]
+    pub verbose: bool,
 }
 
 fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
@@ -37,82 +43,90 @@ fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
 }
 
 pub fn run(args: EvaluateArgs) -> Result<()> {
-    let config = robot_agent::runtime::models::load_config(args.config.as_deref())?;
+    let mut config = robot_agent::runtime::models::load_config(args.config.as_deref())?;
+    config.detector = args.detector.preset.apply(config.detector);
     let folder = LabelledFolder::open(&args.folder)?;
     let detector = Detector::new(config.detector).context("the detector's settings")?;
     let classifier = robot_agent::runtime::models::classifier(
         &config.detector,
         args.model.classifier.as_deref(),
     )?;
-    let mut eval = LabelEval::new(config.validation.min_probability);
-    let (mut unreadable, mut warnings, mut unlabelled) = (0usize, 0usize, 0usize);
-    let mut ms = Vec::new();
-    let n = folder.items.len();
-    for (k, item) in folder.items.iter().enumerate() {
-        let name = item.name();
-        let outcome = (|| -> Result<_> {
-            let image = robot_agent::io::image_io::load_rgb(&item.image)?;
-            let labels = folder.labels(item, &image)?;
-            let model = folder.camera.model_for(&image)?;
-            Ok((image, labels, model))
-        })();
-        let (image, labels, model) = match outcome {
-            Ok(o) => o,
-            Err(e) => {
-                eprintln!("[{}/{n}] {name}: left out: {e:#}", k + 1);
-                unreadable += 1;
-                continue;
-            }
-        };
-        unlabelled += usize::from(item.label.is_none());
-        for w in &labels.warnings {
-            eprintln!("[{}/{n}] {name}: line {}: {}", k + 1, w.line, w.what);
-        }
-        warnings += labels.warnings.len();
-        let started = Instant::now();
-        let candidates =
-            detector.detect(&image, model.as_ref(), classifier.as_ref(), &mut NoClock)?;
-        let took_ms = started.elapsed().as_secs_f64() * 1e3;
-        ms.push(took_ms);
-        let scored: Vec<_> = candidates
-            .iter()
-            .map(|c| (c.circle, c.probability))
-            .collect();
-        eval.add(&name, &labels.balls, &scored, took_ms);
-        if let Some(row) = eval.last() {
-            eprintln!(
-                "[{}/{n}] {name}: {} balls, {} candidates, published {}",
-                k + 1,
-                row.balls.len(),
-                row.candidates,
-                match (row.published, row.published_on_ball) {
-                    (None, _) => "nothing".to_string(),
-                    (Some(p), on) => format!(
-                        "({:.0}, {:.0}) r {:.1} p {:.2}{}",
-                        p[0],
-                        p[1],
-                        p[2],
-                        p[3],
-                        if on { " on a ball" } else { " off the balls" }
-                    ),
-                }
+    let items: Vec<_> = folder.items.iter().collect();
+    let out = evaluate_items(
+        &folder,
+        &items,
+        &detector,
+        classifier.as_ref(),
+        &EvaluateOptions {
+            min_probability: config.validation.min_probability,
+            what: "evaluating",
+            verbose: args.verbose,
+        },
+    )?;
+    let report = &out.report;
+    println!("{report}");
+    if out.folders.len() > 1 {
+        println!();
+        println!(
+            "{:<28} {:>6} {:>8} {:>9} {:>10} {:>8} {:>8}",
+            "folder", "photos", "recall", "precision", "ball recall", "FP/photo", "ms"
+        );
+        for (name, r) in &out.folders {
+            let pct =
+                |v: Option<f64>| v.map_or("–".to_string(), |v| format!("{:.1} %", 100.0 * v));
+            println!(
+                "{:<28} {:>6} {:>8} {:>9} {:>10} {:>8} {:>8}",
+                if name.is_empty() { "." } else { name },
+                r.images,
+                pct(r.recall_published),
+                pct(r.precision),
+                pct(r.ball_recall),
+                r.false_positives_per_image
+                    .map_or("–".to_string(), |v| format!("{v:.3}")),
+                r.timing_ms
+                    .map_or("–".to_string(), |t| format!("{:.2}", t.median))
             );
         }
     }
-    let timing = proto::stats::quantile(&ms, 0.5)
-        .zip(proto::stats::quantile(&ms, 0.9))
-        .map(|(median, p90)| TimingMs { median, p90 });
-    let report = eval.report(timing);
-    println!("{report}");
-    if unlabelled + unreadable + warnings > 0 {
+    if out.unlabelled + out.unreadable + out.warnings > 0 {
         println!(
-            "{unlabelled} images without a label file (taken as no ball), {unreadable} left out \
-             (unreadable image or labels), {warnings} label warnings"
+            "{} images without a label file (taken as no ball), {} left out \
+             (unreadable image or labels), {} label warnings",
+            out.unlabelled, out.unreadable, out.warnings
         );
     }
     if let Some(path) = &args.json {
-        write_file(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+        // The report as before, with the per-folder reports beside it.
+        let mut json = serde_json::to_value(report)?;
+        if let Some(map) = json.as_object_mut() {
+            map.insert(
+                "folders".into(),
+                out.folders
+                    .iter()
+                    .map(|(n, r)| {
+                        Ok(serde_json::json!({"folder": n, "report": serde_json::to_value(r)?}))
+                    })
+                    .collect::<Result<Vec<_>, serde_json::Error>>()?
+                    .into(),
+            );
+        }
+        write_file(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
         println!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.pr_plot {
+        let chart = crate::pr_chart::pr_chart(
+            "Precision and recall",
+            &[crate::pr_chart::Curve {
+                name: "detector",
+                points: &report.pr_curve,
+                threshold: config.validation.min_probability,
+            }],
+        )?;
+        write_file(path, &robot_agent::io::image_io::encode_png(&chart)?)?;
+        println!(
+            "wrote {} (precision against recall as the threshold falls)",
+            path.display()
+        );
     }
     if let Some(path) = &args.plot {
         let groups: Vec<Vec<Option<f64>>> = report

@@ -10,6 +10,7 @@ mod calibrate_cmd;
 mod camera_args;
 mod detect_cmd;
 mod evaluate_cmd;
+mod pr_chart;
 mod run_cmd;
 mod train_cmd;
 

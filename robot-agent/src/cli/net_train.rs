@@ -1,0 +1,164 @@
+//! Training the ball network from labelled photos: the photos split into training and
+//! held-out sets by folder (whole events held out, never single photos), samples cut from
+//! every photo with a progress bar, the fit, and the held-out score of the whole detector
+//! (appearance proposals judged by the new network) on the held-out photos.
+
+use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
+use crate::cli::labelled::{Item, LabelledFolder};
+use crate::detection::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
+use crate::detection::ballnet_train::{NetTrainConfig, Progress, TrainedNet, train_net};
+use crate::detection::classifier::NetClassifier;
+use crate::detection::detect::{Detector, DetectorConfig, Proposer};
+use crate::labels::eval::LabelReport;
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use proto::rng::Rng;
+use std::collections::BTreeMap;
+
+/// A progress bar on stderr (hidden when stderr is not a terminal) with a closing line.
+pub fn bar(len: usize, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len as u64);
+    let style = ProgressStyle::with_template(&format!(
+        "{what} [{{elapsed_precise}}] {{bar:30}} {{pos:>5}}/{{len}} eta {{eta:>3}} {{msg}}"
+    ))
+    .unwrap_or_else(|_| ProgressStyle::default_bar());
+    bar.set_style(style);
+    bar
+}
+
+/// Whether an item's folder is one of the held-out folders (a folder and everything
+/// under it).
+pub fn held_out(item: &Item, folders: &[String]) -> bool {
+    folders.iter().any(|f| {
+        let f = f.trim_end_matches('/');
+        item.folder == f || item.folder.starts_with(&format!("{f}/"))
+    })
+}
+
+/// The samples of the given photos, and how many balls the proposals covered; a photo
+/// that cannot be read is reported and left out.
+pub fn collect_samples(
+    folder: &LabelledFolder,
+    items: &[&Item],
+    cfg: &SampleConfig,
+    seed: u64,
+    what: &str,
+) -> Result<(Vec<Sample>, SampleCounts)> {
+    let bar = bar(items.len(), what);
+    let mut samples = Vec::new();
+    let mut counts = SampleCounts::default();
+    let mut left_out = 0;
+    for (k, item) in items.iter().enumerate() {
+        let loaded = crate::io::image_io::load_rgb(&item.image)
+            .map_err(anyhow::Error::from)
+            .and_then(|image| Ok((folder.labels(item, &image)?, image)));
+        match loaded {
+            Ok((labels, image)) => {
+                let mut rng = Rng::stream(seed, "ballnet-samples", k as u64);
+                let (s, c) = photo_samples(&image, &labels.balls, cfg, &mut rng);
+                samples.extend(s);
+                counts += c;
+            }
+            Err(e) => {
+                left_out += 1;
+                bar.suspend(|| eprintln!("{}: left out: {e:#}", item.image.display()));
+            }
+        }
+        bar.set_message(format!("{} samples", samples.len()));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    eprintln!(
+        "{what}: {} photos ({left_out} left out), {} balls of which {} proposed, {} ball and \
+         {} other samples",
+        items.len() - left_out,
+        counts.balls,
+        counts.proposed,
+        counts.positives,
+        counts.negatives
+    );
+    Ok((samples, counts))
+}
+
+/// The detector the network is made for: appearance proposals only, other settings as
+/// given.
+pub fn net_detector(base: &DetectorConfig) -> Result<Detector> {
+    Detector::new(DetectorConfig {
+        proposer: Proposer::Appearance,
+        ..*base
+    })
+    .context("the detector's settings")
+}
+
+/// What a training run made: the network and, when photos were held out, the detector's
+/// score on them.
+#[derive(Debug)]
+pub struct NetTraining {
+    pub trained: TrainedNet,
+    pub held_out: Option<LabelReport>,
+}
+
+/// Trains the network on the photos of `train`, scoring it on the photos of `val`.
+pub fn train_on_photos(
+    folder: &LabelledFolder,
+    train: &[&Item],
+    val: (&LabelledFolder, &[&Item]),
+    cfg: &NetTrainConfig,
+    samples: &SampleConfig,
+    metadata: BTreeMap<String, String>,
+) -> Result<NetTraining> {
+    let (train_samples, _) = collect_samples(folder, train, samples, cfg.seed, "training photos")?;
+    let (val_samples, _) = if val.1.is_empty() {
+        (Vec::new(), SampleCounts::default())
+    } else {
+        collect_samples(val.0, val.1, samples, cfg.seed + 1, "held-out photos")?
+    };
+    let bar = bar(0, "training");
+    let trained = train_net(
+        &train_samples,
+        &val_samples,
+        cfg,
+        &metadata,
+        &mut |p| match p {
+            Progress::Batch { done, total } => {
+                bar.set_length(total as u64);
+                bar.set_position(done as u64);
+            }
+            Progress::Epoch(r) => bar.suspend(|| {
+                eprintln!(
+                    "epoch {:>3}: training loss {:.4}, held-out loss {:.4}, held-out sample \
+                 accuracy {:.2} %",
+                    r.epoch,
+                    r.train_loss,
+                    r.val_loss,
+                    100.0 * r.val_accuracy
+                )
+            }),
+        },
+    )?;
+    bar.finish_and_clear();
+    eprintln!(
+        "kept epoch {} of {}",
+        trained.best_epoch,
+        trained.epochs.len()
+    );
+    let held_out = if val.1.is_empty() {
+        None
+    } else {
+        let detector = net_detector(&DetectorConfig::default())?;
+        let classifier = NetClassifier::new(trained.net.clone());
+        let out = evaluate_items(
+            val.0,
+            val.1,
+            &detector,
+            &classifier,
+            &EvaluateOptions {
+                min_probability: 0.5,
+                what: "held-out score",
+                verbose: false,
+            },
+        )?;
+        Some(out.report)
+    };
+    Ok(NetTraining { trained, held_out })
+}
