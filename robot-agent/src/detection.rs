@@ -17,6 +17,7 @@
 //! - [`train`]: training the filter from labelled patches: augmentation, split, grid
 //!   search by cross-validation, held-out metrics; the detectors that mine training
 //!   candidates.
+//! - [`colour_fit`]: the colour window fitted to labelled photos' ball pixels.
 //! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
 //! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
 //! - [`two_colour`]: the two-colour mask of a patterned ball (the ball's colour with white
@@ -37,6 +38,7 @@ pub mod ballnet_data;
 pub mod ballnet_train;
 pub mod blob_circle;
 pub mod classifier;
+pub mod colour_fit;
 pub mod components;
 pub mod contrast;
 pub mod detect;

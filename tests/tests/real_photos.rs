@@ -115,3 +115,39 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("19990101"));
 }
+
+#[test]
+fn calibrate_colour_writes_a_window_evaluate_takes() {
+    let dir = tempfile::tempdir().unwrap();
+    let settings = dir.path().join("colour.toml");
+    let out = Command::new(AGENT_CLI)
+        .args(["calibrate-colour", "--images"])
+        .arg(photos())
+        .arg("--out")
+        .arg(&settings)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let config = robot_agent::runtime::models::load_config(Some(&settings)).unwrap();
+    // The balls of these photos are yellow to cream: the window sits between orange and
+    // green, and keeps the green carpet out.
+    let t = config.detector.thresholds;
+    assert!(t.hue_lo_deg > 10.0 && t.hue_hi_deg < 90.0, "{t:?}");
+    assert!(!t.contains(120.0, 0.6, 0.5), "{t:?}");
+    let out = Command::new(AGENT_CLI)
+        .args(["evaluate", "--detector", "config", "--config"])
+        .arg(&settings)
+        .arg("--images")
+        .arg(photos())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

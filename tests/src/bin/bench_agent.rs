@@ -1,7 +1,7 @@
 //! `bench_agent`: the robot agent's perception pipeline's time per frame on one core, by
 //! stage, on frames rendered from simulated matches; and the renderer's own speed.
 //!
-//! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--classifier MODEL.json`,
+//! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--detector colour|net`, `--classifier MODEL`,
 //! `--doc FILE`.
 //!
 //! Frames are rendered first (not timed), then each goes through the agent's whole
@@ -14,7 +14,7 @@ use proto::{Camera, Pitch};
 use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
 use robot_agent::detection::detect::StageClock;
 use robot_agent::image::RgbImage;
-use robot_agent::runtime::models::{ClassifierArgs, classifier, load_models};
+use robot_agent::runtime::models::{ClassifierArgs, DetectorPreset, classifier, load_models};
 use sim::camera_world::{CameraWorld, CameraWorldConfig};
 use sim::lens::LensModel;
 use sim::render::CameraRig;
@@ -36,6 +36,10 @@ struct BenchArgs {
     /// Seconds of each match (both cameras of every robot at 5 Hz).
     #[arg(long, default_value_t = 20.0)]
     seconds: f64,
+    /// The detector timed: the MiRo's colour path, or appearance proposals judged by the
+    /// ball network (its own section of the document).
+    #[arg(long, value_enum, default_value_t = DetectorPreset::Colour)]
+    detector: DetectorPreset,
     /// Rewrite the generated section of this markdown file.
     #[arg(long)]
     doc: Option<PathBuf>,
@@ -43,6 +47,8 @@ struct BenchArgs {
 
 const BEGIN: &str = "<!-- bench-vision:begin -->";
 const END: &str = "<!-- bench-vision:end -->";
+const NET_BEGIN: &str = "<!-- bench-vision-net:begin -->";
+const NET_END: &str = "<!-- bench-vision-net:end -->";
 
 /// Every stage's durations, milliseconds, in pipeline order.
 #[derive(Debug, Default)]
@@ -81,7 +87,8 @@ fn main() -> Result<()> {
     let args = BenchArgs::parse();
     let rig = CameraRig::new(LensModel::miro());
     let [left, right] = load_models(None, None)?;
-    let config = PipelineConfig::default();
+    let mut config = PipelineConfig::default();
+    config.detector = args.detector.apply(config.detector);
     let mut frames = Vec::new();
     let mut render_s = 0.0;
     for m in 0..args.matches {
@@ -178,17 +185,21 @@ fn main() -> Result<()> {
     );
     println!("{table}");
     if let Some(path) = &args.doc {
+        let (flag, begin, end) = match args.detector {
+            DetectorPreset::Net => (" --detector net", NET_BEGIN, NET_END),
+            _ => ("", BEGIN, END),
+        };
         let cmd = format!(
-            "cargo run --release -p harness --bin bench_agent -- --matches {} --seconds {} --doc {}",
+            "cargo run --release -p harness --bin bench_agent -- --matches {} --seconds {}{flag} --doc {}",
             args.matches,
             args.seconds,
             path.display()
         );
         let section = format!("Produced by `{cmd}`.\n\n{table}");
         let old = std::fs::read_to_string(path).unwrap_or_default();
-        let block = format!("{BEGIN}\n{section}{END}");
-        let new = match (old.find(BEGIN), old.find(END)) {
-            (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + END.len()..]),
+        let block = format!("{begin}\n{section}{end}");
+        let new = match (old.find(begin), old.find(end)) {
+            (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + end.len()..]),
             _ => format!("{old}\n{block}\n"),
         };
         std::fs::write(path, new).with_context(|| format!("writing {}", path.display()))?;

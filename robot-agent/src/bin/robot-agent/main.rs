@@ -1,12 +1,14 @@
 //! `robot-agent`: a MiRo's ball perception. `run` finds the ball in camera frames and
 //! publishes observations and status over Zenoh; `calibrate` fits a camera model to
-//! chessboard images; `train` fits the ball classifier; `detect` finds the ball in a folder
-//! of photos; `evaluate` scores the detector on labelled photos. The commands that drive
+//! chessboard images; `calibrate-colour` fits the colour detector's window to labelled
+//! photos; `train` fits the ball network (or the HOG + SVM filter); `detect` finds the ball
+//! in a folder of photos; `evaluate` scores the detector on labelled photos. The commands that drive
 //! the simulator (the agent on rendered cameras, the pipeline benchmark, the simulated
 //! calibration and classifier) are the harness's binaries.
 
 mod bar_chart;
 mod calibrate_cmd;
+mod calibrate_colour_cmd;
 mod camera_args;
 mod detect_cmd;
 mod evaluate_cmd;
@@ -30,7 +32,9 @@ enum Command {
     Run(Box<run_cmd::RunCmdArgs>),
     /// Fits a camera model to chessboard images.
     Calibrate(calibrate_cmd::CalibrateArgs),
-    /// Trains the ball classifier.
+    /// Fits the colour detector's window to the balls of labelled photos.
+    CalibrateColour(calibrate_colour_cmd::CalibrateColourArgs),
+    /// Trains the ball network (default) or the HOG + SVM filter.
     Train(train_cmd::TrainArgs),
     /// Finds the ball in a folder of photos (no index, no pose): every candidate, as JSON lines.
     Detect(detect_cmd::DetectArgs),
@@ -54,6 +58,7 @@ fn main() -> Result<()> {
             rt.block_on(run_cmd::run(*args))
         }
         Command::Calibrate(args) => calibrate_cmd::run(args),
+        Command::CalibrateColour(args) => calibrate_colour_cmd::run(args),
         Command::Train(args) => train_cmd::run(args),
         Command::Detect(args) => detect_cmd::run(args),
         Command::Evaluate(args) => evaluate_cmd::run(*args),
