@@ -66,6 +66,10 @@ pub struct TrainArgs {
     /// Moved and scaled copies of every labelled ball (ball network).
     #[arg(long, default_value_t = SampleConfig::default().copies_per_ball)]
     pub copies: usize,
+    /// Appearance proposals per photo that become samples (ball network; more gives more
+    /// hard negatives). Default: as many as the detector makes.
+    #[arg(long)]
+    pub proposals: Option<usize>,
     /// Random negative windows per labelled photo.
     #[arg(long, default_value_t = 8)]
     pub random_negatives: usize,
@@ -144,11 +148,15 @@ fn run_net(args: TrainArgs) -> Result<()> {
         seed: args.seed,
         ..NetTrainConfig::default()
     };
-    let samples = SampleConfig {
+    let mut samples = SampleConfig {
         copies_per_ball: args.copies,
         random_per_photo: args.random_negatives,
         ..SampleConfig::default()
     };
+    if let Some(n) = args.proposals {
+        anyhow::ensure!(n > 0, "--proposals must be at least 1");
+        samples.appearance.max_candidates = n;
+    }
     let images = args
         .labelled
         .images
