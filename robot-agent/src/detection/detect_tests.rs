@@ -102,6 +102,55 @@ fn finds_a_shaded_ball_and_ignores_an_orange_stripe() {
 }
 
 #[test]
+fn the_appearance_proposer_finds_a_ball_of_another_colour_and_both_add_up() {
+    let mut image = background();
+    draw_ball(&mut image, [200.4, 90.7], 14.0, false);
+    // A blue disc: outside every colour window.
+    for y in 0..H {
+        for x in 0..W {
+            if (f64::from(x) - 80.0).hypot(f64::from(y) - 60.0) < 9.0 {
+                image.set_pixel(x, y, [30, 60, 220]);
+            }
+        }
+    }
+    let near = |c: &Circle, x: f64, y: f64, r: f64| {
+        (c.center_px[0] - x).hypot(c.center_px[1] - y) < 0.5 * r
+    };
+    let run = |proposer: Proposer| {
+        let detector = Detector::new(DetectorConfig {
+            proposer,
+            ..DetectorConfig::default()
+        })
+        .unwrap();
+        let mut marks = Marks(Vec::new());
+        let found = detector
+            .detect(&image, None, &HoughOnly, &mut marks)
+            .unwrap();
+        (found, marks.0)
+    };
+    let (colour, _) = run(Proposer::Colour);
+    assert!(!colour.iter().any(|c| near(&c.circle, 80.0, 60.0, 9.0)));
+    let (appearance, marks) = run(Proposer::Appearance);
+    assert_eq!(marks, ["appearance", "classify"]);
+    assert!(appearance.iter().any(|c| near(&c.circle, 80.0, 60.0, 9.0)));
+    assert!(
+        appearance
+            .iter()
+            .any(|c| near(&c.circle, 200.4, 90.7, 14.0))
+    );
+    let (both, marks) = run(Proposer::Both);
+    assert_eq!(marks.first(), Some(&"mask"));
+    assert!(marks.contains(&"appearance"));
+    assert!(both.iter().any(|c| near(&c.circle, 80.0, 60.0, 9.0)));
+    // The orange ball is proposed by both paths but kept once.
+    let orange = both
+        .iter()
+        .filter(|c| near(&c.circle, 200.4, 90.7, 14.0))
+        .count();
+    assert_eq!(orange, 1, "{both:?}");
+}
+
+#[test]
 fn a_patterned_ball_is_found_through_its_white_patches() {
     let mut image = background();
     draw_ball(&mut image, [150.2, 100.6], 20.0, true);
