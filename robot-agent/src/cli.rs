@@ -9,10 +9,12 @@
 //! - [`labelled_patches`]: training patches cut from labelled photos.
 //! - [`net_train`]: the ball network from labelled photos, events held out whole.
 //! - [`evaluate`]: the detector scored on labelled photos, overall and per folder.
+//! - [`progress`]: the progress bar of the long photo commands.
 
 pub mod calibrate;
 pub mod evaluate;
 pub mod labelled;
 pub mod labelled_patches;
 pub mod net_train;
+pub mod progress;
 pub mod train;

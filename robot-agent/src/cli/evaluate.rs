@@ -49,7 +49,7 @@ pub fn evaluate_items(
     let (mut unreadable, mut warnings, mut unlabelled) = (0usize, 0usize, 0usize);
     let mut ms = Vec::new();
     let n = items.len();
-    let bar = crate::cli::net_train::bar(n, opts.what);
+    let bar = crate::cli::progress::bar(n, opts.what);
     for (k, item) in items.iter().enumerate() {
         let name = item.name();
         bar.inc(1);

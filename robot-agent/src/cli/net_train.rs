@@ -5,26 +5,15 @@
 
 use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
 use crate::cli::labelled::{Item, LabelledFolder};
+use crate::cli::progress::bar;
 use crate::detection::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
 use crate::detection::ballnet_train::{NetTrainConfig, Progress, TrainedNet, train_net};
 use crate::detection::classifier::NetClassifier;
 use crate::detection::detect::{Detector, DetectorConfig, Proposer};
 use crate::labels::eval::LabelReport;
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use proto::rng::Rng;
 use std::collections::BTreeMap;
-
-/// A progress bar on stderr (hidden when stderr is not a terminal) with a closing line.
-pub fn bar(len: usize, what: &str) -> ProgressBar {
-    let bar = ProgressBar::new(len as u64);
-    let style = ProgressStyle::with_template(&format!(
-        "{what} [{{elapsed_precise}}] {{bar:30}} {{pos:>5}}/{{len}} eta {{eta:>3}} {{msg}}"
-    ))
-    .unwrap_or_else(|_| ProgressStyle::default_bar());
-    bar.set_style(style);
-    bar
-}
 
 /// Whether an item's folder is one of the held-out folders (a folder and everything
 /// under it).
@@ -161,4 +150,25 @@ pub fn train_on_photos(
         Some(out.report)
     };
     Ok(NetTraining { trained, held_out })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_held_out_folder_holds_out_everything_under_it_and_nothing_else() {
+        let item = |folder: &str| Item {
+            image: format!("{folder}/a.jpg").into(),
+            label: None,
+            folder: folder.to_string(),
+        };
+        let out = ["2019".to_string(), "2024/r2/".to_string()];
+        assert!(held_out(&item("2019"), &out));
+        assert!(held_out(&item("2019/r4"), &out));
+        assert!(held_out(&item("2024/r2"), &out));
+        assert!(!held_out(&item("2024/r1"), &out));
+        assert!(!held_out(&item("20190"), &out));
+        assert!(!held_out(&item(""), &out));
+    }
 }

@@ -21,7 +21,7 @@ pub fn run(args: CalibrateColourArgs) -> Result<()> {
     let folder = LabelledFolder::open(&args.labelled)?;
     let mut samples = ColourSamples::default();
     let (mut balls, mut left_out) = (0usize, 0usize);
-    let bar = robot_agent::cli::net_train::bar(folder.items.len(), "reading photos");
+    let bar = robot_agent::cli::progress::bar(folder.items.len(), "reading photos");
     for item in &folder.items {
         bar.inc(1);
         let loaded = robot_agent::io::image_io::load_rgb(&item.image)
