@@ -183,20 +183,27 @@ fn loss(
     Ok((total, right))
 }
 
+/// The variables by name, in name order (a fixed order for the file and the seeded
+/// initialisation).
+fn sorted_vars(varmap: &VarMap) -> Result<Vec<(String, candle_core::Var)>, NetTrainError> {
+    let vars = varmap
+        .data()
+        .lock()
+        .map_err(|_| NetTrainError::Serialise("the variables' lock is poisoned".into()))?;
+    let mut out: Vec<(String, candle_core::Var)> =
+        vars.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(out)
+}
+
 /// The weights file of the current variables.
 fn weights_file(
     varmap: &VarMap,
     metadata: &BTreeMap<String, String>,
 ) -> Result<Vec<u8>, NetTrainError> {
-    let vars = varmap
-        .data()
-        .lock()
-        .map_err(|_| NetTrainError::Serialise("the variables' lock is poisoned".into()))?;
-    let mut names: Vec<&String> = vars.keys().collect();
-    names.sort();
     let mut bufs = Vec::new();
-    for name in names {
-        let t = vars[name].as_tensor();
+    for (name, var) in sorted_vars(varmap)? {
+        let t = var.as_tensor();
         let values = t.flatten_all()?.to_vec1::<f32>()?;
         let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
         bufs.push((name.clone(), t.dims().to_vec(), bytes));
@@ -365,14 +372,7 @@ fn evaluate(
 /// Replaces candle's initial weights with ones drawn from our own seeded generator (He
 /// normal for weights, zero biases), so the same seed gives the same network everywhere.
 fn reinitialise(varmap: &VarMap, seed: u64) -> Result<(), NetTrainError> {
-    let vars = varmap
-        .data()
-        .lock()
-        .map_err(|_| NetTrainError::Serialise("the variables' lock is poisoned".into()))?;
-    let mut names: Vec<&String> = vars.keys().collect();
-    names.sort();
-    for (k, name) in names.into_iter().enumerate() {
-        let var = &vars[name];
+    for (k, (name, var)) in sorted_vars(varmap)?.into_iter().enumerate() {
         let dims = var.as_tensor().dims().to_vec();
         let n: usize = dims.iter().product();
         let values: Vec<f32> = if name.ends_with(".bias") {

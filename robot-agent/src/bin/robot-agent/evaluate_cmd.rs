@@ -114,15 +114,15 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         println!("wrote {}", path.display());
     }
     if let Some(path) = &args.pr_plot {
-        let chart = crate::pr_chart::pr_chart(
+        crate::pr_chart::write_png(
+            path,
             "Precision and recall",
-            &[crate::pr_chart::Curve {
+            crate::pr_chart::Curve {
                 name: "detector",
                 points: &report.pr_curve,
                 threshold: config.validation.min_probability,
-            }],
+            },
         )?;
-        write_file(path, &robot_agent::io::image_io::encode_png(&chart)?)?;
         println!(
             "wrote {} (precision against recall as the threshold falls)",
             path.display()

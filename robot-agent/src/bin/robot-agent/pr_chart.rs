@@ -33,6 +33,16 @@ pub fn pr_chart(title: &str, curves: &[Curve<'_>]) -> Result<RgbImage> {
     Ok(RgbImage::new(W, H, rgb)?)
 }
 
+/// One curve drawn and written to `path` as a PNG (its folder made).
+pub fn write_png(path: &std::path::Path, title: &str, curve: Curve<'_>) -> Result<()> {
+    let chart = pr_chart(title, &[curve])?;
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)?;
+    }
+    std::fs::write(path, robot_agent::io::image_io::encode_png(&chart)?)
+        .map_err(|e| anyhow!("writing {}: {e}", path.display()))
+}
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,

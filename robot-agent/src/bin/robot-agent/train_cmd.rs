@@ -211,15 +211,15 @@ fn run_net(args: TrainArgs) -> Result<()> {
         );
         file = robot_agent::detection::ballnet_train::with_metadata(&file, &meta)?;
         if let Some(path) = &args.plot {
-            let chart = crate::pr_chart::pr_chart(
+            crate::pr_chart::write_png(
+                path,
                 "Held-out precision and recall",
-                &[crate::pr_chart::Curve {
+                crate::pr_chart::Curve {
                     name: "ball network",
                     points: &report.pr_curve,
                     threshold: 0.5,
-                }],
+                },
             )?;
-            write_file(path, &robot_agent::io::image_io::encode_png(&chart)?)?;
             println!("wrote {}", path.display());
         }
         if let Some(path) = &args.json {
