@@ -10,6 +10,7 @@ pub mod baseline;
 pub mod bench;
 pub mod eval;
 pub mod fuzz;
+pub mod line_fit;
 pub mod load;
 pub mod load_report;
 pub mod logging;

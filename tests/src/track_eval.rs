@@ -9,11 +9,13 @@
 
 use crate::baseline::SeedBaseline;
 use crate::eval::for_each;
+use crate::line_fit::LineFit;
 use crate::methods::{baseline_record, drive_ticks};
 use crate::track_events::TrackEvents;
-use crate::track_obs::{ObserverSetup, observe};
+use crate::track_obs::{ObserverSetup, capture_times_s, observe};
 use crate::tracks::Track;
-use fusion_server::estimator::{Bounds, Fusion, FusionConfig, FusionCounters};
+use fusion_server::estimator::motion::fly;
+use fusion_server::estimator::{Bounds, Fusion, FusionConfig, FusionCounters, MotionModel};
 use proto::{BallStatus, ModelParams, Pitch, Prediction, Stamp, WallSide};
 use serde::Serialize;
 use sim::Delivery;
@@ -33,13 +35,18 @@ pub enum TrackMethod {
     Fusion,
     FixedPhysics,
     ConstantVelocity,
+    /// A straight line fitted to the last quarter second of observations
+    /// ([`crate::line_fit`]), its path reflected at the walls with the pitch's restitution
+    /// and no friction: the simplest physics a reader could bolt onto constant velocity.
+    ConstantVelocityReflected,
 }
 
 impl TrackMethod {
-    pub const ALL: [TrackMethod; 3] = [
+    pub const ALL: [TrackMethod; 4] = [
         TrackMethod::Fusion,
         TrackMethod::FixedPhysics,
         TrackMethod::ConstantVelocity,
+        TrackMethod::ConstantVelocityReflected,
     ];
 
     pub fn name(self) -> &'static str {
@@ -47,6 +54,7 @@ impl TrackMethod {
             TrackMethod::Fusion => "fusion",
             TrackMethod::FixedPhysics => "fixed-physics",
             TrackMethod::ConstantVelocity => "constant-velocity",
+            TrackMethod::ConstantVelocityReflected => "cv-reflected",
         }
     }
 
@@ -55,6 +63,9 @@ impl TrackMethod {
         self != TrackMethod::ConstantVelocity
     }
 }
+
+/// Within this of the track, a state has found a relocated ball.
+pub const RELOCATION_FOUND_M: f64 = 0.3;
 
 /// Where the tracks are and how they are observed.
 #[derive(Debug, Clone, PartialEq)]
@@ -203,7 +214,61 @@ pub fn run_method(
                 counters: None,
             }
         }
+        TrackMethod::ConstantVelocityReflected => {
+            let model = MotionModel {
+                decel_mps2: 0.0,
+                restitution: pitch.wall_restitution,
+                tangential_retention: 1.0,
+                ..MotionModel::default()
+            };
+            let bounds = Bounds::from_pitch(pitch);
+            let mut line = LineFit::default();
+            let ticks = drive_ticks(
+                deliveries,
+                start,
+                ticks,
+                all,
+                &mut line,
+                |l, d| l.ingest(&d.obs),
+                |l, t_s| {
+                    let (position, velocity) = l.at(start.offset_secs(t_s))?;
+                    let position = inside(position, &bounds);
+                    let mut bounces = Vec::new();
+                    let mut predicted = Vec::new();
+                    for (k, h) in HORIZONS_S.iter().enumerate() {
+                        let f = fly(position, velocity, *h, &model, &bounds);
+                        predicted.push(f.position);
+                        if k + 1 == HORIZONS_S.len() {
+                            bounces = f.hits().map(|b| (t_s + b.t_s, b.wall)).collect();
+                        }
+                    }
+                    let record = TickRecord {
+                        t_s,
+                        position,
+                        velocity,
+                        predicted,
+                        stop: None,
+                        first_bounce_t_s: bounces.first().map(|b| b.0),
+                    };
+                    Some(TrackTick {
+                        record,
+                        status: None,
+                        model: None,
+                        bounces,
+                    })
+                },
+            );
+            MethodRun {
+                ticks,
+                counters: None,
+            }
+        }
     }
+}
+
+/// `p` moved inside the walls' bounds.
+fn inside(p: [f64; 2], b: &Bounds) -> [f64; 2] {
+    [p[0].clamp(b.x_min, b.x_max), p[1].clamp(b.y_min, b.y_max)]
 }
 
 /// Raw samples of one method on one or more tracks; merged across tracks and seeds.
@@ -230,6 +295,11 @@ pub struct TrackSamples {
     pub final_model: Vec<ModelParams>,
     pub observations_applied: u64,
     pub outside_walls: u64,
+    /// Per relocation (a ball reappearing after a break): seconds from the first capture
+    /// of it to the first state within [`RELOCATION_FOUND_M`] of it...
+    pub relocation_found_s: Vec<f64>,
+    /// ... and the relocations no state came within that of before the next break.
+    pub relocations_not_found: usize,
 }
 
 impl TrackSamples {
@@ -258,11 +328,44 @@ impl TrackSamples {
         self.final_model.extend(&o.final_model);
         self.observations_applied += o.observations_applied;
         self.outside_walls += o.outside_walls;
+        self.relocation_found_s.extend(&o.relocation_found_s);
+        self.relocations_not_found += o.relocations_not_found;
     }
 }
 
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// Per relocation of `track`: seconds from the first capture at or after it (`captures_s`
+/// sorted, track time) to the first state within [`RELOCATION_FOUND_M`] of the track, or
+/// `None` when no state was before the ball's next break or the track's end.
+pub fn relocation_delays(
+    track: &Track,
+    captures_s: &[f64],
+    ticks: &[TrackTick],
+) -> Vec<Option<f64>> {
+    let relocations = track.relocations_s();
+    let mut out = Vec::new();
+    for (k, t_r) in relocations.iter().enumerate() {
+        let until = relocations.get(k + 1).copied().unwrap_or(f64::INFINITY);
+        let Some(seen) = captures_s.get(captures_s.partition_point(|t| t < t_r)) else {
+            continue;
+        };
+        if *seen >= until {
+            continue;
+        }
+        let found = ticks
+            .iter()
+            .filter(|t| t.record.t_s >= *seen && t.record.t_s < until)
+            .find(|t| {
+                track
+                    .position_at(t.record.t_s)
+                    .is_some_and(|p| dist(p, t.record.position) <= RELOCATION_FOUND_M)
+            });
+        out.push(found.map(|t| t.record.t_s - seen));
+    }
+    out
 }
 
 /// Scores one method's answers against the track.
@@ -272,6 +375,7 @@ pub fn score_ticks(
     method: TrackMethod,
     run: &MethodRun,
     ticks_possible: usize,
+    captures_s: &[f64],
 ) -> TrackSamples {
     let mut s = TrackSamples::new();
     s.ticks = run.ticks.len();
@@ -315,6 +419,12 @@ pub fn score_ticks(
         }
     }
     s.onset_lag_s = onset_lags(track, events, &run.ticks);
+    for d in relocation_delays(track, captures_s, &run.ticks) {
+        match d {
+            Some(d) => s.relocation_found_s.push(d),
+            None => s.relocations_not_found += 1,
+        }
+    }
     if let Some(first) = run.ticks.first() {
         s.first_estimate_s.push(first.record.t_s - track.start_s());
     }
@@ -391,11 +501,13 @@ pub fn evaluate_track(track: &Track, setup: &TrackSetup, seed: u64) -> TrackRun 
     let bounds = Bounds::from_pitch(&setup.pitch);
     let events = TrackEvents::of(track, &bounds, setup.pitch.ball_radius_m);
     let ticks = tick_times_s(track);
+    let captures_s = capture_times_s(&deliveries, &setup.observers, start);
     let methods = TrackMethod::ALL
         .iter()
         .map(|m| {
             let run = run_method(*m, &setup.pitch, &deliveries, start, &ticks);
-            (*m, score_ticks(track, &events, *m, &run, ticks.len()))
+            let s = score_ticks(track, &events, *m, &run, ticks.len(), &captures_s);
+            (*m, s)
         })
         .collect();
     TrackRun {

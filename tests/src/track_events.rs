@@ -54,7 +54,16 @@ impl TrackEvents {
         let velocity_mps = smoothed_velocity(&times_s, &pos, SMOOTHING_HALF_WINDOW_S);
         let near_m = BOUNCE_NEAR_RADII * ball_radius_m;
         let bounces = wall_bounces(track, &times_s, &pos, bounds, near_m);
-        let pushes = pushes(&times_s, &velocity_mps);
+        let mut pushes = pushes(&times_s, &velocity_mps);
+        // A ball placed elsewhere was moved by hand: no model foresees that either.
+        for t_s in track.relocations_s() {
+            let before = times_s[..times_s.partition_point(|t| *t < t_s)]
+                .last()
+                .copied()
+                .unwrap_or(t_s);
+            pushes.push((before, t_s + PUSH_BEFORE_S));
+        }
+        pushes.sort_by(|a, b| a.0.total_cmp(&b.0));
         TrackEvents {
             times_s,
             velocity_mps,

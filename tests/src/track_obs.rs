@@ -24,6 +24,9 @@ pub struct ObserverSetup {
     pub latency_s: f64,
     /// Probability that a capture is lost.
     pub dropout: f64,
+    /// The first robot's clock runs this far ahead of the others' (its stamps are late by
+    /// it): a robot whose clock was never set.
+    pub clock_offset_s: f64,
 }
 
 impl Default for ObserverSetup {
@@ -34,6 +37,7 @@ impl Default for ObserverSetup {
             noise_m: 0.02,
             latency_s: 0.04,
             dropout: 0.0,
+            clock_offset_s: 0.0,
         }
     }
 }
@@ -50,6 +54,8 @@ pub enum SetupError {
     Latency(f64),
     #[error("dropout must be in 0..1, not {0}")]
     Dropout(f64),
+    #[error("clock_offset_s must be within ±5 s, not {0}")]
+    ClockOffset(f64),
 }
 
 impl ObserverSetup {
@@ -68,6 +74,9 @@ impl ObserverSetup {
         }
         if !(0.0..1.0).contains(&self.dropout) {
             return Err(SetupError::Dropout(self.dropout));
+        }
+        if !(self.clock_offset_s.is_finite() && self.clock_offset_s.abs() <= 5.0) {
+            return Err(SetupError::ClockOffset(self.clock_offset_s));
         }
         Ok(())
     }
@@ -95,9 +104,32 @@ pub fn robot_poses(pitch: &Pitch, n: usize) -> Vec<Pose2> {
         .collect()
 }
 
+impl ObserverSetup {
+    /// How far robot `k`'s clock is ahead of true time.
+    pub fn clock_offset_of(&self, k: usize) -> f64 {
+        if k == 0 { self.clock_offset_s } else { 0.0 }
+    }
+}
+
 /// The robots' name for robot `k`.
 pub fn robot_id(k: usize) -> String {
     format!("robot{}", k + 1)
+}
+
+/// The true capture times (seconds after `start`) of `deliveries`, sorted: their stamps
+/// less the clock offset of the robot that made them.
+pub fn capture_times_s(deliveries: &[Delivery], setup: &ObserverSetup, start: Stamp) -> Vec<f64> {
+    let mut out: Vec<f64> = deliveries
+        .iter()
+        .map(|d| {
+            let k = (0..setup.robots)
+                .find(|k| robot_id(*k) == d.obs.robot_id)
+                .unwrap_or(usize::MAX);
+            d.obs.stamp.secs_since(start) - setup.clock_offset_of(k)
+        })
+        .collect();
+    out.sort_by(f64::total_cmp);
+    out
 }
 
 /// Every robot's observations of `track`, sorted by arrival (ties: capture stamp, robot).
@@ -118,9 +150,13 @@ pub fn observe(
         let id = robot_id(k);
         let mut t_s = track.start_s() + rng.range(0.0, frame_s);
         let mut seq = 0;
-        while let Some(p) = track.position_at(t_s) {
+        while t_s <= track.end_s() {
             let capture_s = t_s;
             t_s += frame_s;
+            // Nothing to see while the ball is off the pitch (a break in the track).
+            let Some(p) = track.position_at(capture_s) else {
+                continue;
+            };
             if rng.chance(setup.dropout) {
                 continue;
             }
@@ -130,10 +166,11 @@ pub fn observe(
             ];
             let half = 0.5 * setup.latency_s;
             let delay_s = half + rng.exponential(half);
-            let stamp = start.offset_secs(capture_s);
+            let arrival = start.offset_secs(capture_s + delay_s);
+            let stamp = start.offset_secs(capture_s + setup.clock_offset_of(k));
             seq += 1;
             out.push(Delivery {
-                arrival: stamp.offset_secs(delay_s),
+                arrival,
                 obs: Observation {
                     version: proto::VERSION,
                     robot_id: id.clone(),

@@ -2,7 +2,9 @@
 //! and as a chart of error against horizon.
 
 use crate::plot::{Chart, Marker, PALETTE, Series, Style};
-use crate::track_eval::{BOUNCE_WINDOW_S, MOVING_MPS, TICK_S, TrackMethod, TrackRun, TrackSamples};
+use crate::track_eval::{
+    BOUNCE_WINDOW_S, MOVING_MPS, RELOCATION_FOUND_M, TICK_S, TrackMethod, TrackRun, TrackSamples,
+};
 use crate::track_obs::ObserverSetup;
 use crate::tracks::{TimeUnit, TrackFile};
 use proto::Pitch;
@@ -82,6 +84,11 @@ pub struct MethodSummary {
     pub final_restitution_samples: Option<Spread>,
     pub observations_applied: u64,
     pub observations_outside_walls: u64,
+    /// Relocated balls: from their first capture to the first state within
+    /// [`RELOCATION_FOUND_M`] of them, and those never found.
+    pub relocation_found_s: Spread,
+    pub relocation_found_max_s: Option<f64>,
+    pub relocations_not_found: usize,
 }
 
 impl MethodSummary {
@@ -121,6 +128,9 @@ impl MethodSummary {
             final_restitution_samples: spread_of(|m| f64::from(m.restitution_samples)),
             observations_applied: s.observations_applied,
             observations_outside_walls: s.outside_walls,
+            relocation_found_s: Spread::of(&s.relocation_found_s),
+            relocation_found_max_s: s.relocation_found_s.iter().copied().reduce(f64::max),
+            relocations_not_found: s.relocations_not_found,
         }
     }
 }
@@ -272,6 +282,29 @@ pub fn markdown(rep: &TracksReport) -> String {
             opt(m.first_estimate_s.median, |v| format!("{v:.2}")),
         ));
     }
+    let relocated = |m: &MethodSummary| m.relocation_found_s.n + m.relocations_not_found;
+    if rep.methods.iter().any(|m| relocated(m) > 0) {
+        s.push_str(&format!(
+            "\nBalls placed elsewhere (a break in the track): seconds from the first capture of \
+             the ball at its new place to the first state within {:.0} cm of it.\n\n\
+             | method | relocations | found after, s: median / p90 / max | not found |\n\
+             |---|---|---|---|\n",
+            RELOCATION_FOUND_M * 100.0
+        ));
+        for m in &rep.methods {
+            let f = &m.relocation_found_s;
+            let cell = match (f.median, f.p90, m.relocation_found_max_s) {
+                (Some(md), Some(p), Some(mx)) => format!("{md:.2} / {p:.2} / {mx:.2}"),
+                _ => "–".into(),
+            };
+            s.push_str(&format!(
+                "| {} | {} | {cell} | {} |\n",
+                m.method,
+                relocated(m),
+                m.relocations_not_found
+            ));
+        }
+    }
     if rep.tracks.len() > 1 || rep.setup.seeds > 1 {
         s.push_str(
             "\nFirst estimate, deceleration and restitution: medians over the tracks × seeds.\n",
@@ -314,7 +347,7 @@ fn method_color(name: &str) -> [u8; 3] {
         .iter()
         .position(|m| m.name() == name)
         .unwrap_or(0);
-    [PALETTE[0], PALETTE[2], PALETTE[3]][k]
+    [PALETTE[0], PALETTE[2], PALETTE[3], PALETTE[1]][k]
 }
 
 /// Median (solid) and 90th percentile (dashed) error against horizon, per method; the

@@ -29,6 +29,15 @@ pub struct Track {
     pub samples: Vec<TrackSample>,
 }
 
+/// Consecutive samples further apart in time than this are a break: the ball was off the
+/// pitch or out of the tracker's sight (picked up, placed elsewhere), and nothing is known
+/// of it in between.
+pub const MAX_GAP_S: f64 = 0.3;
+/// Consecutive samples further apart than this in space, faster than [`MAX_SPEED_MPS`],
+/// are a break too: the ball was moved by hand between them.
+pub const MIN_JUMP_M: f64 = 0.3;
+pub const MAX_SPEED_MPS: f64 = 20.0;
+
 impl Track {
     pub fn start_s(&self) -> f64 {
         self.samples.first().map_or(0.0, |s| s.t_s)
@@ -42,14 +51,34 @@ impl Track {
         self.end_s() - self.start_s()
     }
 
-    /// Whether `t_s` lies within the track's time span.
-    pub fn covers(&self, t_s: f64) -> bool {
-        !self.samples.is_empty() && t_s >= self.start_s() && t_s <= self.end_s()
+    /// Whether samples `i` and `i + 1` are separated by a break (see [`MAX_GAP_S`]).
+    fn breaks_after(&self, i: usize) -> bool {
+        let (Some(a), Some(b)) = (self.samples.get(i), self.samples.get(i + 1)) else {
+            return false;
+        };
+        let dt = b.t_s - a.t_s;
+        let d = (b.position_m[0] - a.position_m[0]).hypot(b.position_m[1] - a.position_m[1]);
+        dt > MAX_GAP_S || (d > MIN_JUMP_M && d > MAX_SPEED_MPS * dt)
     }
 
-    /// The position at `t_s`, interpolated linearly; `None` outside the track's span.
+    /// The times at which the ball reappears after a break: where it was placed (or first
+    /// seen again), the start of a relocation.
+    pub fn relocations_s(&self) -> Vec<f64> {
+        (0..self.samples.len().saturating_sub(1))
+            .filter(|i| self.breaks_after(*i))
+            .map(|i| self.samples[i + 1].t_s)
+            .collect()
+    }
+
+    /// Whether the ball is known at `t_s`: within the track's span and not in a break.
+    pub fn covers(&self, t_s: f64) -> bool {
+        self.position_at(t_s).is_some()
+    }
+
+    /// The position at `t_s`, interpolated linearly; `None` outside the track's span and
+    /// inside its breaks.
     pub fn position_at(&self, t_s: f64) -> Option<[f64; 2]> {
-        if !self.covers(t_s) {
+        if self.samples.is_empty() || t_s < self.start_s() || t_s > self.end_s() {
             return None;
         }
         let i = self.samples.partition_point(|s| s.t_s <= t_s);
@@ -60,6 +89,9 @@ impl Track {
         let Some(b) = self.samples.get(i) else {
             return Some(a.position_m);
         };
+        if t_s > a.t_s && self.breaks_after(i - 1) {
+            return None;
+        }
         let f = (t_s - a.t_s) / (b.t_s - a.t_s);
         Some([
             a.position_m[0] + f * (b.position_m[0] - a.position_m[0]),

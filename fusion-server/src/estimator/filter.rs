@@ -110,6 +110,35 @@ impl BallFilter {
         BallFilter { x, p, t_s }
     }
 
+    /// A filter started from two sightings of a moving ball, `z0` (covariance `r0`) at
+    /// `t0_s` and `z1` (`r1`) at the later `t1_s`: at `z1`, its velocity the average between
+    /// them less the deceleration's share over the gap, the velocity's covariance that of
+    /// the difference with `slack_mps` per axis for what a straight line cannot know (a kick
+    /// or a bend between the two). Two-point track initiation: a fast ball seen twice is
+    /// tracked at once, where one sighting with an unknown velocity cannot gate the next.
+    pub fn through(
+        (z0, r0, t0_s): ([f64; 2], &Matrix2<f64>, f64),
+        (z1, r1, t1_s): ([f64; 2], &Matrix2<f64>, f64),
+        slack_mps: f64,
+        params: ModelPrior,
+    ) -> Self {
+        let dt = (t1_s - t0_s).max(1e-3);
+        let mut v = [(z1[0] - z0[0]) / dt, (z1[1] - z0[1]) / dt];
+        let s = v[0].hypot(v[1]);
+        let lost = 0.5 * params.decel.0.max(0.0) * dt;
+        let keep = if s > lost { (s - lost) / s } else { 1.0 };
+        v = [v[0] * keep, v[1] * keep];
+        let mut f = BallFilter::start(z1, r1, t1_s, 0.0, params);
+        f.x[2] = v[0];
+        f.x[3] = v[1];
+        let pv = r1 / dt;
+        let vv = (r0 + r1) / (dt * dt) + Matrix2::identity() * slack_mps * slack_mps;
+        f.p.fixed_view_mut::<2, 2>(0, 2).copy_from(&pv);
+        f.p.fixed_view_mut::<2, 2>(2, 0).copy_from(&pv.transpose());
+        f.p.fixed_view_mut::<2, 2>(2, 2).copy_from(&vv);
+        f
+    }
+
     /// The mean: [x, y, vx, vy, decel, restitution].
     pub fn state(&self) -> &State {
         &self.x

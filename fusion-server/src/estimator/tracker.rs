@@ -50,6 +50,9 @@ pub struct Track {
     bounce: Option<BounceLearning>,
     /// The last few sightings, each with the filter from just before it (see [`onset`]).
     recent: VecDeque<Recent>,
+    /// The sighting that started this hypothesis, while it is its only one: a later
+    /// sighting nothing accepts may pair with it ([`TrackerConfig::pair_max_dt_s`]).
+    first: Option<([f64; 2], Matrix2<f64>)>,
 }
 
 /// What the observations after one well-observed bounce may teach.
@@ -107,6 +110,8 @@ pub struct Tracker {
     restitution_updates: u32,
     /// Observations dropped for lying beyond a wall, where no ball can be.
     outside_walls: u64,
+    /// Hypotheses restarted through two sightings (two-point initiation).
+    pairs: u64,
     /// Kicks inferred from surprising updates.
     kicks_inferred: u64,
     /// Observations whose innovation covariance could not be factored: not applied.
@@ -121,6 +126,9 @@ pub struct Tracker {
 }
 
 const HIT_HISTORY_S: f64 = 1.5;
+/// Two sightings closer in time than this are one frame's (two cameras, or a duplicate):
+/// no speed can be read from them.
+const MIN_PAIR_DT_S: f64 = 0.01;
 /// ... and at most this many (a flood of observations must not make states expensive to
 /// copy; support counts only need to reach a few).
 const MAX_HITS: usize = 1024;
@@ -153,6 +161,7 @@ impl Tracker {
             robot_slots_reused: 0,
             restitution_updates: 0,
             outside_walls: 0,
+            pairs: 0,
             t_s: f64::NEG_INFINITY,
         }
     }
@@ -199,6 +208,11 @@ impl Tracker {
     /// New robots that took the place of one long quiet, the table being full.
     pub fn robot_slots_reused(&self) -> u64 {
         self.robot_slots_reused
+    }
+
+    /// Hypotheses restarted through two sightings of a moving ball.
+    pub fn pairs_initiated(&self) -> u64 {
+        self.pairs
     }
 
     /// Kicks inferred from runs of surprising updates.
@@ -349,10 +363,62 @@ impl Tracker {
                 self.remember(i, &sighting);
                 self.update_track(i, ri, o, &r_eff);
             }
-            (None, None) => self.spawn(ri, o, &r_eff),
+            (None, None) => match self.pairing(o) {
+                Some(i) => self.pair(i, ri, o, &r_eff),
+                None => self.spawn(ri, o, &r_eff),
+            },
         }
         self.promote(o.t_s);
         self.prune(o.t_s);
+    }
+
+    /// The hypothesis seen once whose sighting `o` continues at the lowest plausible speed.
+    fn pairing(&self, o: &ObsInput) -> Option<usize> {
+        let cfg = &self.cfg;
+        self.tracks
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| Some(*i) != self.main)
+            .filter_map(|(i, tr)| {
+                let (z0, _) = tr.first?;
+                let dt = o.t_s - tr.born_s;
+                let moved = (o.position_m[0] - z0[0]).hypot(o.position_m[1] - z0[1]);
+                let ok = dt > MIN_PAIR_DT_S && dt <= cfg.pair_max_dt_s;
+                let v = moved / dt;
+                (ok && v <= cfg.pair_max_speed_mps).then_some((i, v))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _)| i)
+    }
+
+    /// Restarts hypothesis `i` through its first sighting and `o` (two-point initiation).
+    fn pair(&mut self, i: usize, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
+        let cfg = self.cfg.clone();
+        let track = &mut self.tracks[i];
+        let Some((z0, r0)) = track.first.take() else {
+            return;
+        };
+        let prior = ModelPrior {
+            decel: (
+                track.filter.state()[DECEL],
+                track.filter.covariance()[(DECEL, DECEL)],
+            ),
+            restitution: (
+                track.filter.state()[RESTITUTION],
+                track.filter.covariance()[(RESTITUTION, RESTITUTION)],
+            ),
+        };
+        track.filter = BallFilter::through(
+            (z0, &r0, track.born_s),
+            (o.position_m, r_eff, o.t_s),
+            cfg.pair_velocity_slack_mps,
+            prior,
+        );
+        track.recent.clear();
+        track.boost_until_s = track.boost_until_s.max(o.t_s + cfg.kick_boost_s);
+        self.pairs += 1;
+        self.held += 1;
+        self.record_hit(i, ri, o);
     }
 
     fn predict_all(&mut self, t_s: f64) {
@@ -444,6 +510,16 @@ impl Tracker {
                 self.restitution_updates = self.restitution_updates.saturating_add(1);
             }
         }
+        self.record_hit(i, ri, o);
+        if learn_decel {
+            self.decel_updates = self.decel_updates.saturating_add(1);
+        }
+    }
+
+    /// `o` (from robot `ri`) supports track `i`.
+    fn record_hit(&mut self, i: usize, ri: usize, o: &ObsInput) {
+        let track = &mut self.tracks[i];
+        track.first = None;
         track.last_hit_s = track.last_hit_s.max(o.t_s);
         track.hits.push_back(Hit {
             t_s: o.t_s,
@@ -459,9 +535,6 @@ impl Tracker {
         }
         if track.hits.len() > MAX_HITS {
             track.hits.pop_front();
-        }
-        if learn_decel {
-            self.decel_updates = self.decel_updates.saturating_add(1);
         }
     }
 
@@ -504,6 +577,7 @@ impl Tracker {
             quiet_until_s: o.t_s + cfg.learn_quiet_s,
             bounce: None,
             recent: VecDeque::new(),
+            first: Some((o.position_m, *r_eff)),
             // A new hypothesis is often a ball just kicked and still sliding.
             boost_until_s: o.t_s + cfg.kick_boost_s,
         };

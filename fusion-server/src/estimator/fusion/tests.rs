@@ -379,3 +379,53 @@ fn a_stream_of_made_up_robot_ids_does_not_grow_the_state_without_end() {
     let st = f.ball_state(Stamp(T0).offset_secs(t)).expect("a state");
     assert!((st.position_m[0] - 0.5).abs() < 0.05, "{:?}", st.position_m);
 }
+
+/// One robot at 10 Hz watches a ball at rest; the ball is picked up and, 1.5 s later, kicked
+/// at 5 m/s from elsewhere. Returns the served position error 0.5 s after the robot first
+/// sees the kicked ball, and the hypotheses started through two sightings.
+fn moved_ball_fast_kick(cfg: FusionConfig) -> (f64, u64) {
+    let mut f = Fusion::new(cfg);
+    let mut rng = Lcg(5);
+    let truth = |t: f64| {
+        let d = t - 4.5;
+        [3.5 - 6.5 * d + 0.2 * d * d, -1.0]
+    };
+    let mut seq = 0;
+    for k in 0..30u64 {
+        let t = k as f64 / 10.0;
+        let p = [-3.0 + 0.02 * rng.normal(), 1.5 + 0.02 * rng.normal()];
+        ingest(&mut f, &obs("a", seq, t, p, 0.02));
+        seq += 1;
+    }
+    let first_seen = 4.52;
+    for k in 0..6u64 {
+        let t = first_seen + k as f64 / 10.0;
+        let z = truth(t);
+        let p = [z[0] + 0.03 * rng.normal(), z[1] + 0.03 * rng.normal()];
+        ingest(&mut f, &obs("a", seq, t, p, 0.03));
+        seq += 1;
+    }
+    let at = first_seen + 0.5;
+    let st = f.ball_state(Stamp(T0).offset_secs(at)).expect("state");
+    let z = truth(at);
+    let err = (st.position_m[0] - z[0]).hypot(st.position_m[1] - z[1]);
+    (err, f.tracker().pairs_initiated())
+}
+
+#[test]
+fn a_moved_ball_kicked_fast_is_found_by_one_slow_robot_within_half_a_second() {
+    let pitch = Pitch {
+        length_m: 9.0,
+        width_m: 6.0,
+        ..Pitch::default()
+    };
+    let (err, pairs) = moved_ball_fast_kick(FusionConfig::for_pitch(pitch.clone()));
+    assert!(err < 0.3, "served {err} m from the kicked ball");
+    assert!(pairs >= 1, "{pairs}");
+    // Without two-point initiation no hypothesis follows a 6.5 m/s ball seen every 65 cm.
+    let mut cfg = FusionConfig::for_pitch(pitch);
+    cfg.tracker.pair_max_dt_s = 0.0;
+    let (err_off, pairs_off) = moved_ball_fast_kick(cfg);
+    assert_eq!(pairs_off, 0);
+    assert!(err_off > 1.0, "{err_off} m without pairing");
+}

@@ -14,6 +14,13 @@ pub struct TrackerConfig {
     pub max_innovation_m: f64,
     /// Velocity uncertainty of a new hypothesis.
     pub spawn_velocity_sigma_mps: f64,
+    /// A sighting no track accepts restarts a hypothesis seen once, up to this long before,
+    /// as a ball moving from that sighting to this one (two-point initiation), if the speed
+    /// that implies is at most `pair_max_speed_mps`; the closest such pairing wins...
+    pub pair_max_dt_s: f64,
+    pub pair_max_speed_mps: f64,
+    /// ... and its velocity has this much uncertainty beyond the two sightings' own.
+    pub pair_velocity_slack_mps: f64,
     pub max_tracks: usize,
     /// A hypothesis with no observation for this long is dropped.
     pub candidate_ttl_s: f64,
@@ -84,6 +91,9 @@ impl Default for TrackerConfig {
             gate_chi2: 11.83,
             max_innovation_m: 0.6,
             spawn_velocity_sigma_mps: 1.5,
+            pair_max_dt_s: 0.45,
+            pair_max_speed_mps: 8.0,
+            pair_velocity_slack_mps: 0.3,
             max_tracks: 6,
             candidate_ttl_s: 0.6,
             promote_window_s: 0.4,

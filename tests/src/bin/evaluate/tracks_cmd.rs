@@ -84,6 +84,10 @@ pub struct TrackArgs {
     /// Probability that a capture is lost.
     #[arg(long, default_value_t = ObserverSetup::default().dropout, requires = "tracks")]
     pub dropout: f64,
+    /// The first robot's clock runs this many milliseconds ahead (a robot whose clock was
+    /// never set): its stamps are late by it.
+    #[arg(long, default_value_t = 0.0, requires = "tracks")]
+    pub clock_offset_ms: f64,
     /// A track with fewer usable rows is an error.
     #[arg(long, default_value_t = ReadOptions::default().min_rows, requires = "tracks")]
     pub min_rows: usize,
@@ -121,6 +125,7 @@ impl TrackArgs {
             noise_m: self.noise_m,
             latency_s: self.latency_s,
             dropout: self.dropout,
+            clock_offset_s: self.clock_offset_ms * 1e-3,
         }
     }
 
@@ -177,6 +182,7 @@ impl TrackArgs {
             ("noise-m", o.noise_m, d.noise_m),
             ("latency-s", o.latency_s, d.latency_s),
             ("dropout", o.dropout, d.dropout),
+            ("clock-offset-ms", o.clock_offset_s * 1e3, 0.0),
         ];
         for (name, v, default) in flags {
             if v != default {
