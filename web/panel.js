@@ -58,9 +58,14 @@ export function showRobots(robots, ids) {
     cell(tr, r.outlier_rate == null ? "–" : `${(100 * r.outlier_rate).toFixed(0)} %`);
     // Clock: the server's estimate of server minus robot clock (positive: the robot is behind).
     const clock = cell(tr, r.clock_offset_s == null ? "–" : `${r.clock_offset_s >= 0 ? "+" : ""}${(1000 * r.clock_offset_s).toFixed(0)} ms`);
+    if (r.clock_correction_s) {
+      clock.textContent += " ✓";
+    }
     if (r.clock_suspect) {
       clock.className = "suspect";
-      clock.title = "this robot's clock is off: its sightings are placed at the wrong time (synchronise it, e.g. with NTP)";
+      clock.title = r.clock_correction_s
+        ? `this robot's clock is off; the server corrects its stamps by ${(1000 * r.clock_correction_s).toFixed(0)} ms (synchronise it, e.g. with NTP)`
+        : "this robot's clock is off: its sightings are placed at the wrong time (synchronise it, e.g. with NTP)";
     }
     return tr;
   });

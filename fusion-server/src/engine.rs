@@ -16,7 +16,7 @@ mod admission;
 mod clock_offset;
 mod recent;
 pub use admission::{AdmissionConfig, SWEEP_EVERY_S, TokenBucket};
-pub use clock_offset::{ClockCheck, OFFSET_WINDOW, OffsetWindow};
+pub use clock_offset::{ClockCheck, ClockJump, OFFSET_WINDOW, OffsetWindow, common_floor_s};
 pub use recent::{RECENT_OBS_MAX, RecentObs, RecentObservations};
 
 /// Why an inbound message was not used.
@@ -148,6 +148,8 @@ struct RobotEntry {
     latency_s: Option<f64>,
     /// The same lags, the recent ones, for the clock offset.
     lags: OffsetWindow,
+    /// Seconds added to its stamps before they reach the core (its clock's correction).
+    correction_s: f64,
 }
 
 impl RobotEntry {
@@ -165,6 +167,7 @@ impl RobotEntry {
             rate: Rate::default(),
             latency_s: None,
             lags: OffsetWindow::default(),
+            correction_s: 0.0,
         }
     }
 }
@@ -197,6 +200,11 @@ pub struct RobotView {
     pub clock_offset_s: Option<f64>,
     /// True when `clock_offset_s` exceeds the warning threshold either way.
     pub clock_suspect: bool,
+    /// Seconds the server adds to its stamps before fusing them: its clock offset once
+    /// estimated from enough observations and beyond the dead band, bounded; 0 otherwise.
+    pub clock_correction_s: f64,
+    /// Jumps of its clock caught (the offset estimate restarted).
+    pub clock_jumps: u64,
     /// Pose from its latest status, else from its latest observation.
     pub pose: Option<Pose2>,
     pub status: Option<RobotStatus>,
@@ -207,6 +215,12 @@ pub struct RobotView {
 pub struct EngineCounters {
     pub observations_accepted: u64,
     pub statuses_accepted: u64,
+    /// Accepted observations whose stamps were corrected for their robot's clock.
+    pub observations_clock_corrected: u64,
+    /// Robot clock jumps caught.
+    pub clock_jumps: u64,
+    /// Notable events not kept because [`MAX_EVENTS`] were waiting.
+    pub events_dropped: u64,
     /// (message kind, reason) → count.
     pub rejected: BTreeMap<(&'static str, &'static str), u64>,
 }
@@ -221,7 +235,66 @@ pub struct Engine {
     recent: RecentObservations,
     /// When the table was last swept for robots gone quiet.
     swept: Option<Stamp>,
+    /// The robots' common least latency and when it was worked out (receiver clock).
+    clock_floor: Option<(Stamp, f64)>,
+    /// Notable events for the shell to log, oldest first.
+    events: Vec<EngineEvent>,
 }
+
+/// Something an operator should read in the log; the shell drains them
+/// ([`Engine::take_events`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum EngineEvent {
+    /// A robot's stamps are now corrected by `correction_s` (0: no longer corrected).
+    ClockCorrected {
+        robot: String,
+        correction_s: f64,
+        offset_s: f64,
+    },
+    /// A robot's clock jumped; its offset estimate restarted.
+    ClockJumped { robot: String, jump: ClockJump },
+}
+
+impl std::fmt::Display for EngineEvent {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EngineEvent::ClockCorrected {
+                robot,
+                correction_s,
+                offset_s,
+            } if *correction_s == 0.0 => write!(
+                f,
+                "robot {robot:?}: stamps no longer corrected (clock offset {:+.1} ms)",
+                offset_s * 1e3
+            ),
+            EngineEvent::ClockCorrected {
+                robot,
+                correction_s,
+                offset_s,
+            } => write!(
+                f,
+                "robot {robot:?}: stamps corrected by {:+.1} ms (estimated clock offset {:+.1} ms)",
+                correction_s * 1e3,
+                offset_s * 1e3
+            ),
+            EngineEvent::ClockJumped { robot, jump } => {
+                let way = match jump {
+                    ClockJump::Ahead => "ahead",
+                    ClockJump::Back => "back",
+                };
+                write!(
+                    f,
+                    "robot {robot:?}: clock jumped {way}; its offset is estimated afresh"
+                )
+            }
+        }
+    }
+}
+
+/// Events kept for the shell at most; past this they are counted and dropped.
+pub const MAX_EVENTS: usize = 256;
+/// The robots' common latency floor is worked out again at most this often.
+const FLOOR_EVERY_S: f64 = 0.25;
 
 impl Engine {
     pub fn new(cfg: EngineConfig) -> Self {
@@ -232,7 +305,79 @@ impl Engine {
             counters: EngineCounters::default(),
             recent: RecentObservations::default(),
             swept: None,
+            clock_floor: None,
+            events: Vec::new(),
         }
+    }
+
+    /// The notable events since the last call, oldest first.
+    pub fn take_events(&mut self) -> Vec<EngineEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    fn event(&mut self, e: EngineEvent) {
+        if self.events.len() >= MAX_EVENTS {
+            self.counters.events_dropped += 1;
+        } else {
+            self.events.push(e);
+        }
+    }
+
+    /// The robots' common least latency (see [`clock_offset`]), as of `now`.
+    fn clock_floor_s(&mut self, now: Stamp) -> f64 {
+        if let Some((at, floor)) = self.clock_floor
+            && now.secs_since(at).abs() < FLOOR_EVERY_S
+        {
+            return floor;
+        }
+        let floor = self.fresh_clock_floor_s();
+        self.clock_floor = Some((now, floor));
+        floor
+    }
+
+    fn fresh_clock_floor_s(&self) -> f64 {
+        let check = &self.cfg.clock;
+        common_floor_s(
+            self.robots
+                .values()
+                .filter(|r| r.lags.confident(check))
+                .filter_map(|r| r.lags.min_lag_s()),
+            check,
+        )
+    }
+
+    /// Takes the lag of an observation of `robot_id` (validated, so it has an entry) and
+    /// returns the correction for its stamp.
+    fn clock_correction(&mut self, robot_id: &str, lag_s: f64, received: Stamp) -> f64 {
+        let check = self.cfg.clock.clone();
+        let entry = self.entry_at(robot_id, received);
+        let jump = entry.lags.push(lag_s, &check);
+        if jump.is_some() {
+            self.clock_floor = None;
+        }
+        let floor = self.clock_floor_s(received);
+        let entry = self.entry_at(robot_id, received);
+        let before = entry.correction_s;
+        let now = entry.lags.correction_s(floor, &check);
+        // Small changes of a correction in force are applied without a log line.
+        let changed = (now == 0.0) != (before == 0.0) || (now - before).abs() > check.deadband_s;
+        entry.correction_s = now;
+        let offset_s = entry.lags.offset_s(floor).unwrap_or(0.0);
+        if let Some(jump) = jump {
+            self.counters.clock_jumps += 1;
+            self.event(EngineEvent::ClockJumped {
+                robot: robot_id.to_string(),
+                jump,
+            });
+        }
+        if changed {
+            self.event(EngineEvent::ClockCorrected {
+                robot: robot_id.to_string(),
+                correction_s: now,
+                offset_s,
+            });
+        }
+        now
     }
 
     pub fn config(&self) -> &EngineConfig {
@@ -389,7 +534,17 @@ impl Engine {
             self.recent.push(&obs, received, Some(e.reason()));
             return Err(self.reject("observation", Some(&obs.robot_id), e));
         }
-        let outcome = self.fusion.ingest(&obs, received);
+        let lag_s = received.secs_since(obs.stamp);
+        let correction_s = self.clock_correction(&obs.robot_id, lag_s, received);
+        let outcome = if correction_s == 0.0 {
+            self.fusion.ingest(&obs, received)
+        } else {
+            let corrected = Observation {
+                stamp: obs.stamp.offset_secs(correction_s),
+                ..obs.clone()
+            };
+            self.fusion.ingest(&corrected, received)
+        };
         let refused = match outcome {
             Ingest::TooLate { .. } => Some("too_late"),
             Ingest::Duplicate => Some("duplicate"),
@@ -402,16 +557,17 @@ impl Engine {
             return Err(self.reject("observation", Some(&obs.robot_id), Rejection::Core(r)));
         }
         self.counters.observations_accepted += 1;
+        if correction_s != 0.0 {
+            self.counters.observations_clock_corrected += 1;
+        }
         let entry = self.entry_at(&obs.robot_id, received);
         entry.accepted += 1;
         entry.last_obs_received = Some(received);
         entry.rate.hit(received);
-        let latency_s = received.secs_since(obs.stamp);
         entry.latency_s = Some(match entry.latency_s {
-            Some(l) => l + LATENCY_WEIGHT * (latency_s - l),
-            None => latency_s,
+            Some(l) => l + LATENCY_WEIGHT * (lag_s - l),
+            None => lag_s,
         });
-        entry.lags.push(latency_s);
         self.recent.push(&obs, received, None);
         Ok((obs, outcome))
     }
@@ -490,11 +646,12 @@ impl Engine {
     /// Every robot heard of, by id.
     pub fn robots(&self, now: Stamp) -> Vec<RobotView> {
         let trust = self.fusion.robots();
+        let floor_s = self.fresh_clock_floor_s();
         self.robots
             .iter()
             .map(|(id, r)| {
                 let t = trust.iter().find(|t| &*t.robot == id.as_str());
-                let clock_offset_s = r.lags.offset_s(&self.cfg.clock);
+                let clock_offset_s = r.lags.offset_s(floor_s);
                 RobotView {
                     robot_id: id.clone(),
                     online: r.online,
@@ -508,6 +665,8 @@ impl Engine {
                     latency_s: r.latency_s,
                     clock_offset_s,
                     clock_suspect: clock_offset_s.is_some_and(|o| o.abs() > self.cfg.clock.warn_s),
+                    clock_correction_s: r.correction_s,
+                    clock_jumps: r.lags.jumps(),
                     pose: self.robot_pose(id),
                     status: r.status.clone(),
                 }

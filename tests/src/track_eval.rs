@@ -14,6 +14,7 @@ use crate::methods::{baseline_record, drive_ticks};
 use crate::track_events::TrackEvents;
 use crate::track_obs::{ObserverSetup, capture_times_s, observe};
 use crate::tracks::Track;
+use fusion_server::engine::{Engine, EngineConfig};
 use fusion_server::estimator::motion::fly;
 use fusion_server::estimator::{Bounds, Fusion, FusionConfig, FusionCounters, MotionModel};
 use proto::{BallStatus, ModelParams, Pitch, Prediction, Stamp, WallSide};
@@ -174,21 +175,26 @@ pub fn run_method(
     let ticks = ticks_s.iter().copied();
     match method {
         TrackMethod::Fusion | TrackMethod::FixedPhysics => {
-            let mut fusion = Fusion::new(fusion_config(pitch, method));
+            // Through the server's engine, as `replay` feeds it: its checks, and the clock
+            // correction a skewed robot gets.
+            let mut engine = Engine::new(EngineConfig {
+                fusion: fusion_config(pitch, method),
+                ..EngineConfig::default()
+            });
             let ticks = drive_ticks(
                 deliveries,
                 start,
                 ticks,
                 all,
-                &mut fusion,
-                |f, d| {
-                    f.ingest(&d.obs, d.arrival);
+                &mut engine,
+                |e, d| {
+                    let _ = e.observation_decoded(None, d.obs.clone(), d.arrival);
                 },
-                |f, t_s| fusion_tick(f, start.offset_secs(t_s), t_s),
+                |e, t_s| fusion_tick(e.fusion(), start.offset_secs(t_s), t_s),
             );
             MethodRun {
                 ticks,
-                counters: Some(fusion.counters()),
+                counters: Some(engine.fusion().counters()),
             }
         }
         TrackMethod::ConstantVelocity => {

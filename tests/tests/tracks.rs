@@ -89,8 +89,16 @@ fn a_roll_with_a_wall_bounce_is_scored_for_every_method() {
         .iter()
         .filter_map(|m| m["method"].as_str())
         .collect();
-    assert_eq!(names, ["fusion", "fixed-physics", "constant-velocity"]);
-    let (fusion, fixed, cv) = (&methods[0], &methods[1], &methods[2]);
+    assert_eq!(
+        names,
+        [
+            "fusion",
+            "fixed-physics",
+            "constant-velocity",
+            "cv-reflected"
+        ]
+    );
+    let (fusion, fixed, cv, reflected) = (&methods[0], &methods[1], &methods[2], &methods[3]);
     let h1 = num(fusion, &["horizon_error_m", "1.0", "median"]);
     assert!(h1 < 0.1, "fusion median error at 1 s {h1} m");
     let h2 = num(fusion, &["horizon_error_m", "2.0", "median"]);
@@ -105,6 +113,11 @@ fn a_roll_with_a_wall_bounce_is_scored_for_every_method() {
     assert!(num(fusion, &["first_estimate_s", "median"]) < 0.3);
     assert_eq!(num(fixed, &["final_decel_mps2", "median"]), 0.3);
     assert!(cv["bounce_time_error_s"].is_null());
+    let reflected2 = num(reflected, &["horizon_error_m", "2.0", "median"]);
+    assert!(
+        reflected2 < cv2,
+        "2 s: reflected at the wall {reflected2} m, constant velocity {cv2} m"
+    );
     let text = std::fs::read_to_string(&doc).expect("doc");
     assert!(text.starts_with("# Accuracy\n\nHand-written text.\n"));
     assert!(text.contains("<!-- evaluate-tracks:begin -->"));

@@ -274,3 +274,101 @@ fn the_largest_valid_status_fits_the_byte_cap() {
     let bytes = proto::encode(&status).len();
     assert!(bytes <= DEFAULT_MAX_STATUS_BYTES, "{bytes}");
 }
+
+/// Two robots watch a ball rolling along +x at 1 m/s (no friction in this picture: its
+/// deceleration is learned, the short run keeps it near the start value); robot `fast`'s
+/// clock is `ahead_s` ahead of the server's. Every observation arrives 20–40 ms after its
+/// capture. Returns the served along-track error at t (from the true position) and the
+/// engine.
+fn skewed_pair(ahead_s: f64, cfg: EngineConfig, until_s: f64) -> (f64, Engine) {
+    let mut e = Engine::new(cfg);
+    let truth = |t: f64| -1.0 + t;
+    let mut k = 0u64;
+    while (k as f64) / 30.0 < until_s {
+        let t = k as f64 / 30.0;
+        for (robot, skew) in [("honest", 0.0), ("fast", ahead_s)] {
+            let o = Observation {
+                robot_pose: Pose2 {
+                    x_m: 0.0,
+                    y_m: -1.0,
+                    theta_rad: 1.57,
+                },
+                ..observation(robot, k, at(t + skew), [truth(t), 0.0])
+            };
+            let latency_s = 0.02 + 0.02 * (k % 3) as f64 / 2.0;
+            let r = e.observation_decoded(Some(robot), o, at(t + latency_s));
+            assert!(r.is_ok(), "{r:?}");
+        }
+        k += 1;
+    }
+    let t = until_s;
+    let s = e.ball_state(at(t)).expect("a ball");
+    (s.position_m[0] - truth(t), e)
+}
+
+#[test]
+fn a_robot_clock_200_ms_fast_is_corrected_logged_and_counted() {
+    let (bias_m, mut e) = skewed_pair(0.2, EngineConfig::default(), 2.0);
+    assert!(bias_m.abs() < 0.03, "along-track bias {bias_m} m");
+    let robots = e.robots(at(2.0));
+    let fast = robots.iter().find(|r| r.robot_id == "fast").expect("fast");
+    assert!((fast.clock_correction_s + 0.2).abs() < 0.005, "{fast:?}");
+    assert!(fast.clock_suspect);
+    let honest = robots
+        .iter()
+        .find(|r| r.robot_id == "honest")
+        .expect("honest");
+    assert_eq!(honest.clock_correction_s, 0.0);
+    assert!(e.counters().observations_clock_corrected > 0);
+    let events = e.take_events();
+    assert!(
+        events
+            .iter()
+            .any(|ev| matches!(ev, EngineEvent::ClockCorrected { robot, .. } if robot == "fast")),
+        "{events:?}"
+    );
+    assert!(e.take_events().is_empty(), "events are taken once");
+    // Uncorrected, the same robot drags the ball behind (its stamps say it was seen later).
+    let off = EngineConfig {
+        clock: ClockCheck {
+            correct: false,
+            ..ClockCheck::default()
+        },
+        ..EngineConfig::default()
+    };
+    let (bias_off_m, _) = skewed_pair(0.2, off, 2.0);
+    assert!(bias_off_m.abs() > 0.05, "uncorrected bias {bias_off_m} m");
+}
+
+#[test]
+fn a_clock_that_jumps_is_caught_and_the_ball_is_unharmed() {
+    let mut e = Engine::new(EngineConfig::default());
+    let mut jumps_seen = 0;
+    for k in 0..240u64 {
+        let t = k as f64 / 30.0;
+        // Robot `jumpy` jumps 0.5 s ahead at 2 s and back at 5 s.
+        let skew = if (2.0..5.0).contains(&t) { 0.5 } else { 0.0 };
+        for (robot, s) in [("honest", 0.0), ("jumpy", skew)] {
+            let o = observation(robot, k, at(t + s), [0.5, 0.2]);
+            e.observation_decoded(Some(robot), o, at(t + 0.03)).ok();
+        }
+        jumps_seen += e
+            .take_events()
+            .iter()
+            .filter(|ev| matches!(ev, EngineEvent::ClockJumped { .. }))
+            .count();
+    }
+    assert_eq!(e.counters().clock_jumps, 2);
+    assert_eq!(jumps_seen, 2);
+    let s = e.ball_state(at(8.0)).expect("a ball");
+    assert!(
+        (s.position_m[0] - 0.5).abs() < 0.03 && (s.position_m[1] - 0.2).abs() < 0.03,
+        "{s:?}"
+    );
+    let jumpy = e
+        .robots(at(8.0))
+        .into_iter()
+        .find(|r| r.robot_id == "jumpy")
+        .expect("jumpy");
+    assert_eq!(jumpy.clock_correction_s, 0.0, "{jumpy:?}");
+}

@@ -204,6 +204,9 @@ pub fn replay(
                 if engine.observation(robot, &m.data, at).is_ok() {
                     report.observations_accepted += 1;
                 }
+                for e in engine.take_events() {
+                    tracing::info!("{e}");
+                }
                 sink.write(&m.topic, &m.schema_name, at, &m.data);
             }
             "RobotStatus" => {

@@ -164,6 +164,10 @@ pub struct ClockFile {
     pub latency_floor_s: Option<f64>,
     /// Offsets larger than this mark a robot's clock as suspect, seconds.
     pub offset_warn_s: Option<f64>,
+    /// Whether robots' stamps are corrected by their estimated offsets.
+    pub correct: Option<bool>,
+    /// The largest correction either way, seconds.
+    pub max_correction_s: Option<f64>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -295,6 +299,12 @@ impl Settings {
         }
         if let Some(v) = self.clock.offset_warn_s {
             cfg.engine.clock.warn_s = positive("clock.offset_warn_s", v)?;
+        }
+        if let Some(v) = self.clock.correct {
+            cfg.engine.clock.correct = v;
+        }
+        if let Some(v) = self.clock.max_correction_s {
+            cfg.engine.clock.max_correction_s = positive("clock.max_correction_s", v)?;
         }
         self.fusion.apply(&mut cfg.engine.fusion)
     }
@@ -490,6 +500,7 @@ max_mb = 200
             "[limits]\nhttp_max_connections = 0",
             "[clock]\nlatency_floor_s = -1",
             "[clock]\noffset_warn_s = 0",
+            "[clock]\nmax_correction_s = -1",
             "[limits]\nws_send_timeout_s = 0",
         ] {
             let f = Settings::parse(bad, p).expect(bad);

@@ -5,7 +5,7 @@
 //! serialised once: the wire payload and the view, which the live stream and
 //! `GET /api/state` share.
 
-use crate::engine::{Engine, RecentObs, RobotView};
+use crate::engine::{Engine, EngineEvent, RecentObs, RobotView};
 use crate::matchlog::replay_live::{ReplayControl, ReplayStatus};
 use crate::query::{BallQuery, QueryError, QueryReply};
 use crate::shell::metrics::ShellStats;
@@ -312,6 +312,16 @@ impl Live {
         let mut inner = self.lock();
         let result = inner.engine.observation(robot, payload, now);
         self.record(LogKind::Observation, key, now, payload, result.is_ok());
+        for e in inner.engine.take_events() {
+            match e {
+                EngineEvent::ClockCorrected {
+                    correction_s: 0.0, ..
+                } => {
+                    tracing::info!("{e}")
+                }
+                _ => tracing::warn!("{e}"),
+            }
+        }
         match result {
             Ok(_) => {
                 inner.unpublished.push(now);

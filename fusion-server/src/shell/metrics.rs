@@ -116,7 +116,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 23] = [
+    let simple: [(&str, &str, &str, u64); 25] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -134,6 +134,18 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "counter",
             "Robot status messages accepted.",
             c.statuses_accepted,
+        ),
+        (
+            "rf_observations_clock_corrected_total",
+            "counter",
+            "Accepted observations whose capture stamps were corrected by their robot's estimated clock offset.",
+            c.observations_clock_corrected,
+        ),
+        (
+            "rf_clock_jumps_total",
+            "counter",
+            "Robot clock jumps caught (the robot's offset estimate restarted).",
+            c.clock_jumps,
         ),
         (
             "rf_observations_reordered_total",
@@ -274,7 +286,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     }
 
     let robots = engine.robots(now);
-    let per_robot: [(&str, &str, &str); 6] = [
+    let per_robot: [(&str, &str, &str); 7] = [
         (
             "rf_robot_online",
             "gauge",
@@ -303,7 +315,12 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
         (
             "rf_robot_clock_offset_seconds",
             "gauge",
-            "Estimated server clock minus the robot's clock (smallest recent arrival minus capture, less the latency floor).",
+            "Estimated server clock minus the robot's clock (smallest recent arrival minus capture, less the robots' common latency floor).",
+        ),
+        (
+            "rf_robot_clock_correction_seconds",
+            "gauge",
+            "Seconds added to the robot's capture stamps before they are fused (0: not corrected).",
         ),
     ];
     for (k, (name, kind, help)) in per_robot.iter().enumerate() {
@@ -315,7 +332,8 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
                 2 => Some(r.observations_rejected as f64),
                 3 => r.covariance_scale,
                 4 => r.outlier_rate,
-                _ => r.clock_offset_s,
+                5 => r.clock_offset_s,
+                _ => r.clock_offset_s.map(|_| r.clock_correction_s),
             };
             if let Some(v) = v {
                 let _ = writeln!(out, "{name}{{robot=\"{}\"}} {v}", escape(&r.robot_id));
