@@ -15,7 +15,7 @@ function cell(row, text) {
 
 export function showBall(b) {
   if (!b) {
-    for (const id of ["ball-status", "ball-pos", "ball-speed", "ball-ellipse", "ball-decel", "ball-restitution", "ball-stop", "ball-contributors"]) {
+    for (const id of ["ball-status", "ball-existence", "ball-pos", "ball-speed", "ball-ellipse", "ball-decel", "ball-restitution", "ball-stop", "ball-contributors"]) {
       el(id).textContent = "–";
     }
     el("ball").textContent = "ball: not seen yet";
@@ -26,6 +26,11 @@ export function showBall(b) {
   const m = b.model;
   const stop = b.prediction && b.prediction.stop;
   el("ball-status").textContent = b.status;
+  const existence = typeof b.existence === "number" ? b.existence : 1;
+  el("ball-existence").textContent = `${(100 * existence).toFixed(0)} %`;
+  el("ball-existence").title = existence < 0.5
+    ? "cameras look at this place and do not see the ball: it has most likely been moved"
+    : "how likely the ball is where the estimate says";
   el("ball-pos").textContent = `(${b.position_m[0].toFixed(2)}, ${b.position_m[1].toFixed(2)}) m`;
   el("ball-speed").textContent = `${speed.toFixed(2)} m/s`;
   el("ball-ellipse").textContent = e ? `${(100 * e.major_m).toFixed(1)} × ${(100 * e.minor_m).toFixed(1)} cm` : "–";

@@ -252,6 +252,10 @@ export class PitchView {
     }
     const [x, y] = b.position_m;
     const px = this.X(x), py = this.Y(y);
+    // A ball the cameras look for and do not see fades (existence falls towards 0).
+    const existence = typeof b.existence === "number" ? b.existence : 1;
+    ctx.save();
+    ctx.globalAlpha = 0.2 + 0.8 * Math.min(1, Math.max(0, existence));
     const c = b.covariance;
     const e = ellipse2Sigma(c[0], c[1], c[5]);
     if (e) {
@@ -272,7 +276,8 @@ export class PitchView {
     ctx.arc(px, py, Math.max(5, pitch.ball_radius_m * s), 0, 2 * Math.PI);
     ctx.fill();
     ctx.stroke();
-    out.ball = { x_m: x, y_m: y, px, py, status: b.status, ellipse: e, stamp: b.stamp };
+    ctx.restore();
+    out.ball = { x_m: x, y_m: y, px, py, status: b.status, ellipse: e, stamp: b.stamp, existence };
   }
 
   arrow(x0, y0, x1, y1, colour) {

@@ -2,7 +2,7 @@
 //! feeds the core, keeps the roster of robots, answers queries and counts everything.
 //! Like the core it never reads a clock and does no I/O: the shell passes time and bytes in.
 
-use crate::estimator::{Fusion, FusionConfig, Ingest};
+use crate::estimator::{Fusion, FusionConfig, Ingest, ViewReport};
 use crate::query::{BallQuery, QueryError, QueryReply};
 use proto::{
     BallState, DecodeError, Intercept, Observation, Pitch, Pose2, RobotStatus, Stamp, VERSION,
@@ -150,6 +150,8 @@ struct RobotEntry {
     lags: OffsetWindow,
     /// Seconds added to its stamps before they reach the core (its clock's correction).
     correction_s: f64,
+    /// Camera footprints of its statuses the core refused.
+    footprints_refused: u64,
 }
 
 impl RobotEntry {
@@ -168,6 +170,7 @@ impl RobotEntry {
             latency_s: None,
             lags: OffsetWindow::default(),
             correction_s: 0.0,
+            footprints_refused: 0,
         }
     }
 }
@@ -205,6 +208,8 @@ pub struct RobotView {
     pub clock_correction_s: f64,
     /// Jumps of its clock caught (the offset estimate restarted).
     pub clock_jumps: u64,
+    /// Camera footprints of its statuses refused (not a polygon, the whole pitch, ...).
+    pub footprints_refused: u64,
     /// Pose from its latest status, else from its latest observation.
     pub pose: Option<Pose2>,
     pub status: Option<RobotStatus>,
@@ -253,6 +258,13 @@ pub enum EngineEvent {
     },
     /// A robot's clock jumped; its offset estimate restarted.
     ClockJumped { robot: String, jump: ClockJump },
+    /// A camera footprint of a robot's status was refused; `count` refused so far (told
+    /// at the 1st, 2nd, 4th, 8th, ... so a robot that always sends bad ones is not a flood).
+    FootprintRefused {
+        robot: String,
+        reason: String,
+        count: u64,
+    },
 }
 
 impl std::fmt::Display for EngineEvent {
@@ -287,6 +299,14 @@ impl std::fmt::Display for EngineEvent {
                     "robot {robot:?}: clock jumped {way}; its offset is estimated afresh"
                 )
             }
+            EngineEvent::FootprintRefused {
+                robot,
+                reason,
+                count,
+            } => write!(
+                f,
+                "robot {robot:?}: camera footprint refused ({reason}); {count} so far, its frames tell nothing of what they do not see"
+            ),
         }
     }
 }
@@ -603,8 +623,37 @@ impl Engine {
         }
         self.counters.statuses_accepted += 1;
         let entry = self.entry_at(&status.robot_id, received);
+        let correction_s = entry.correction_s;
+        let since = entry
+            .status
+            .as_ref()
+            .filter(|prev| prev.stamp < status.stamp)
+            .map(|prev| prev.stamp.offset_secs(correction_s));
         entry.status = Some(status.clone());
         entry.status_received = Some(received);
+        // What its cameras looked at, on the fusion's clock (corrected as its observations
+        // are).
+        let report = ViewReport {
+            robot: &status.robot_id,
+            stamp: status.stamp.offset_secs(correction_s),
+            pose: status.pose,
+            footprints: &status.footprints,
+            fps: status.fps,
+            since,
+        };
+        let refused = self.fusion.footprints(&report, received);
+        for e in refused {
+            let entry = self.entry_at(&status.robot_id, received);
+            entry.footprints_refused += 1;
+            let count = entry.footprints_refused;
+            if count.is_power_of_two() {
+                self.event(EngineEvent::FootprintRefused {
+                    robot: status.robot_id.clone(),
+                    reason: e.to_string(),
+                    count,
+                });
+            }
+        }
         Ok(status)
     }
 
@@ -667,6 +716,7 @@ impl Engine {
                     clock_suspect: clock_offset_s.is_some_and(|o| o.abs() > self.cfg.clock.warn_s),
                     clock_correction_s: r.correction_s,
                     clock_jumps: r.lags.jumps(),
+                    footprints_refused: r.footprints_refused,
                     pose: self.robot_pose(id),
                     status: r.status.clone(),
                 }

@@ -180,8 +180,17 @@ pub struct BallState {
     pub last_seen: Option<Stamp>,
     /// Robots whose observations updated the estimate recently.
     pub contributors: Vec<String>,
+    /// Probability, 0 to 1, that the ball is where the estimate says: near 1 while it is
+    /// seen, falling while robots' cameras look at its place and do not see it. Absent in
+    /// states from before it existed (read as 1).
+    #[serde(default = "certain")]
+    pub existence: f64,
     pub model: ModelParams,
     pub prediction: Prediction,
+}
+
+fn certain() -> f64 {
+    1.0
 }
 
 /// The earliest point on the predicted path a robot can reach.

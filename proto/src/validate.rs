@@ -299,6 +299,8 @@ impl Validate for BallState {
         for id in &self.contributors {
             check_robot_id(id)?;
         }
+        check_finite("existence", &[self.existence])?;
+        check_range("existence", self.existence, 0.0, 1.0)?;
         let m = &self.model;
         check_finite("model", &[m.rolling_decel_mps2, m.wall_restitution])?;
         check_range("model.wall_restitution", m.wall_restitution, 0.0, 1.0)?;

@@ -10,9 +10,13 @@ use super::filter::{BallFilter, DECEL, RESTITUTION};
 use super::intercept::{InterceptSolution, intercept};
 use super::motion::{Bounds, speed};
 use super::predict;
-use super::tracker::{ObsInput, RobotTrust, Tracker, TrackerConfig};
+use super::tracker::{NothingSeen, ObsInput, RobotTrust, Tracker, TrackerConfig};
+use super::views::{Footprint, FootprintError, Views};
 use nalgebra::Matrix2;
-use proto::{BallState, BallStatus, Camera, ModelParams, Observation, Pitch, Prediction, Stamp};
+use proto::{
+    BallState, BallStatus, Camera, CameraFootprint, ModelParams, Observation, Pitch, Pose2,
+    Prediction, Stamp,
+};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
@@ -109,6 +113,11 @@ pub struct FusionCounters {
     pub singular_updates: u64,
     /// New robots that took the place of one long quiet, the tracker's table being full.
     pub robot_slots_reused: u64,
+    /// Frames that looked at a hypothesis and did not see it (negative information).
+    pub misses_in_view: u64,
+    /// Camera footprints kept, and refused (not a polygon, the whole pitch, ...).
+    pub footprints_accepted: u64,
+    pub footprints_rejected: u64,
 }
 
 /// Finite numbers and a symmetric positive-definite covariance: what the filter can use.
@@ -125,6 +134,20 @@ fn usable(obs: &Observation, r: &Matrix2<f64>) -> bool {
         && r[(1, 1)] > 0.0
         && r.determinant() > 0.0
         && (r[(0, 1)] - r[(1, 0)]).abs() <= 1e-9 * r[(0, 0)].max(r[(1, 1)])
+}
+
+/// What a robot's status says its cameras looked at ([`Fusion::footprints`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ViewReport<'a> {
+    pub robot: &'a str,
+    /// Capture time of the status, on the fusion's clock.
+    pub stamp: Stamp,
+    pub pose: Pose2,
+    pub footprints: &'a [CameraFootprint],
+    /// Frames a second its perception processes.
+    pub fps: f64,
+    /// Capture time of its previous status, on the fusion's clock.
+    pub since: Option<Stamp>,
 }
 
 /// Origin of the core's f64 time axis (2020-01-01T00:00:00Z). A fixed origin, rather than
@@ -167,6 +190,8 @@ pub struct Fusion {
     newest: Option<Stamp>,
     names: Vec<Arc<str>>,
     counters: FusionCounters,
+    /// The robots' recent camera footprints.
+    views: Views,
 }
 
 impl Fusion {
@@ -183,6 +208,7 @@ impl Fusion {
             newest: None,
             names: Vec::new(),
             counters: FusionCounters::default(),
+            views: Views::default(),
         }
     }
 
@@ -197,6 +223,7 @@ impl Fusion {
             kicks_inferred: self.tracker().kicks_inferred(),
             singular_updates: self.tracker().singular_updates(),
             robot_slots_reused: self.tracker().robot_slots_reused(),
+            misses_in_view: self.tracker().misses(),
             ..self.counters
         }
     }
@@ -268,10 +295,21 @@ impl Fusion {
             position_m: obs.position_m,
             covariance_m2: r,
             robot_pose: obs.robot_pose,
+            nothing_seen: None,
         };
+        let ingest = self.place(pos, key, input, horizon);
+        self.counters.applied += 1;
+        if matches!(ingest, Ingest::Reordered { .. }) {
+            self.counters.reordered += 1;
+        }
+        ingest
+    }
+
+    /// Puts `input` at `pos` of the pending observations and brings the state up to date.
+    fn place(&mut self, pos: usize, key: Key, input: ObsInput, horizon: Stamp) -> Ingest {
         let appended = pos == self.pending.len();
         if appended {
-            self.current.apply(&input);
+            self.current.apply(&input, &self.views);
             let due = input.t_s - self.last_checkpoint_s >= CHECKPOINT_SPACING_S;
             let after = due.then(|| self.current.clone());
             if due {
@@ -292,11 +330,9 @@ impl Fusion {
         let replayed = self.pending.len() - pos - 1;
         self.newest = Some(horizon);
         self.commit();
-        self.counters.applied += 1;
         if replayed == 0 {
             Ingest::Applied
         } else {
-            self.counters.reordered += 1;
             self.counters.replayed += replayed as u64;
             Ingest::Reordered { replayed }
         }
@@ -324,7 +360,7 @@ impl Fusion {
         // Without checkpoints (a quiet window) fold the committed inputs in, bounded.
         if self.base_then.len() >= FOLD_EVERY {
             for input in self.base_then.drain(..) {
-                self.base.apply(&input);
+                self.base.apply(&input, &self.views);
             }
         }
     }
@@ -340,7 +376,7 @@ impl Fusion {
             None => {
                 let mut t = self.base.clone();
                 for input in &self.base_then {
-                    t.apply(input);
+                    t.apply(input, &self.views);
                 }
                 (0, t)
             }
@@ -350,7 +386,7 @@ impl Fusion {
             .map_or(f64::NEG_INFINITY, |i| self.pending[i].input.t_s);
         for i in start..self.pending.len() {
             let p = &mut self.pending[i];
-            tracker.apply(&p.input);
+            tracker.apply(&p.input, &self.views);
             let due = p.input.t_s - last >= CHECKPOINT_SPACING_S;
             p.after = due.then(|| tracker.clone());
             if due {
@@ -359,6 +395,67 @@ impl Fusion {
         }
         self.last_checkpoint_s = last;
         self.current = tracker;
+    }
+
+    /// Takes a robot's camera footprints from its status captured at `stamp` (on the
+    /// fusion's clock), for the negative information of its frames: each frame it reports
+    /// looked at its footprint, and, when it reported none since its previous status
+    /// (`since`), its `fps` frames a second since then saw nothing there. Each footprint is
+    /// checked on its own: the bad are refused (and counted), the others kept.
+    pub fn footprints(&mut self, status: &ViewReport<'_>, received: Stamp) -> Vec<FootprintError> {
+        let bounds = *self.tracker().bounds();
+        let t_s = self.t_of(status.stamp);
+        let horizon = self.newest.map_or(received, |n| n.max(received));
+        let in_window = horizon.secs_since(status.stamp) <= self.cfg.late_window_s
+            && status.stamp.secs_since(received) <= self.cfg.max_future_s;
+        let mut refused = Vec::new();
+        for f in status.footprints {
+            let fp = match Footprint::new(
+                &f.polygon_m,
+                [status.pose.x_m, status.pose.y_m],
+                &bounds,
+                &self.cfg.tracker.views,
+            ) {
+                Ok(fp) => fp,
+                Err(e) => {
+                    self.counters.footprints_rejected += 1;
+                    refused.push(e);
+                    continue;
+                }
+            };
+            self.views.record(status.robot, f.camera, t_s, fp);
+            self.counters.footprints_accepted += 1;
+            let Some(since) = status
+                .since
+                .filter(|_| in_window && self.cfg.tracker.views.enabled)
+            else {
+                continue;
+            };
+            let max_s = self.cfg.tracker.views.max_age_s;
+            let since_s = self.t_of(since).max(t_s - max_s);
+            let frames = status.fps.clamp(0.0, 1000.0) * (t_s - since_s);
+            if frames.is_nan() || frames < 1.0 {
+                continue;
+            }
+            let robot = self.name(status.robot);
+            // After every sighting of the same stamp and robot: statuses carry no sequence.
+            let key: Key = (status.stamp.0, robot.clone(), u64::MAX, 2 + f.camera as u8);
+            let pos = self.pending.partition_point(|p| p.key < key);
+            if self.pending.get(pos).is_some_and(|p| p.key == key) {
+                continue;
+            }
+            let input = ObsInput {
+                t_s,
+                robot,
+                camera: f.camera,
+                position_m: [status.pose.x_m, status.pose.y_m],
+                covariance_m2: Matrix2::identity(),
+                robot_pose: status.pose,
+                nothing_seen: Some(NothingSeen { since_s, frames }),
+            };
+            self.place(pos, key, input, horizon);
+        }
+        refused
     }
 
     /// The main track's filter predicted to `at` (no earlier than its own time).
@@ -408,6 +505,7 @@ impl Fusion {
             status,
             last_seen: Some(self.stamp_of(track.last_hit_s)),
             contributors,
+            existence: track.existence(),
             model: ModelParams {
                 rolling_decel_mps2: f.state()[DECEL],
                 wall_restitution: f.state()[RESTITUTION],

@@ -5,6 +5,7 @@
 //! - [`filter`]: one extended Kalman filter over [x, y, vx, vy, decel, restitution].
 //! - [`tracker`]: hypotheses, gating, promotion, per-robot trust.
 //! - [`fusion`]: capture-time ordering, the late-observation window, the public API.
+//! - [`views`]: the robots' camera footprints, and a ball in view that is not seen.
 //! - [`predict`]: path, bounces, stop point; [`intercept`]: where a robot meets the ball.
 
 pub mod filter;
@@ -13,8 +14,10 @@ pub mod intercept;
 pub mod motion;
 pub mod predict;
 pub mod tracker;
+pub mod views;
 
-pub use fusion::{Fusion, FusionConfig, FusionCounters, Ingest};
+pub use fusion::{Fusion, FusionConfig, FusionCounters, Ingest, ViewReport};
 pub use intercept::InterceptSolution;
 pub use motion::{Bounds, MotionModel};
 pub use tracker::{ObsInput, RobotTrust, TrackerConfig};
+pub use views::{Footprint, FootprintError, ViewConfig};

@@ -10,6 +10,7 @@
 
 use super::filter::{BallFilter, DECEL, Innovation, Learn, ModelPrior, ProcessNoise, RESTITUTION};
 use super::motion::{Bounds, speed};
+use super::views::{Views, existence};
 use nalgebra::Matrix2;
 use proto::{Camera, Pose2};
 use std::collections::VecDeque;
@@ -34,6 +35,16 @@ pub struct ObsInput {
     pub position_m: [f64; 2],
     pub covariance_m2: Matrix2<f64>,
     pub robot_pose: Pose2,
+    /// Not a sighting: the robot's status says this camera captured `frames` frames since
+    /// `since_s` and reported nothing in them (`position_m` is then the robot's).
+    pub nothing_seen: Option<NothingSeen>,
+}
+
+/// Frames a camera captured without a sighting, from a robot's status.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NothingSeen {
+    pub since_s: f64,
+    pub frames: f64,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -53,6 +64,10 @@ pub struct Track {
     /// The sighting that started this hypothesis, while it is its only one: a later
     /// sighting nothing accepts may pair with it ([`TrackerConfig::pair_max_dt_s`]).
     first: Option<([f64; 2], Matrix2<f64>)>,
+    /// Log-odds that the ball is where this hypothesis says ([`super::views`]).
+    logodds: f64,
+    /// The frame whose miss was counted last (robot, camera, capture time): one per frame.
+    last_miss: Option<(usize, Camera, f64)>,
 }
 
 /// What the observations after one well-observed bounce may teach.
@@ -94,6 +109,12 @@ impl Track {
     pub fn contributors(&self, now_s: f64, window_s: f64) -> Vec<usize> {
         self.support(now_s, window_s).2
     }
+
+    /// Probability that the ball is where this hypothesis says: 1 while it is seen, falling
+    /// while cameras look at its place and do not see it.
+    pub fn existence(&self) -> f64 {
+        existence(self.logodds)
+    }
 }
 
 /// The whole tracking state. `Clone` is cheap enough to snapshot after every observation,
@@ -121,6 +142,8 @@ pub struct Tracker {
     held: u64,
     /// New robots that took the place of one long quiet ([`MAX_ROBOT_SLOTS`]).
     robot_slots_reused: u64,
+    /// Frames that looked at a hypothesis and did not see it (negative information).
+    misses: u64,
     /// Time of the newest applied observation.
     pub t_s: f64,
 }
@@ -162,6 +185,7 @@ impl Tracker {
             restitution_updates: 0,
             outside_walls: 0,
             pairs: 0,
+            misses: 0,
             t_s: f64::NEG_INFINITY,
         }
     }
@@ -208,6 +232,11 @@ impl Tracker {
     /// New robots that took the place of one long quiet, the table being full.
     pub fn robot_slots_reused(&self) -> u64 {
         self.robot_slots_reused
+    }
+
+    /// Frames counted as looking at a hypothesis and not seeing it.
+    pub fn misses(&self) -> u64 {
+        self.misses
     }
 
     /// Hypotheses restarted through two sightings of a moving ball.
@@ -298,8 +327,13 @@ impl Tracker {
         self.robots.len() - 1
     }
 
-    /// Applies one observation at its capture time (callers feed them in time order).
-    pub fn apply(&mut self, o: &ObsInput) {
+    /// Applies one observation at its capture time (callers feed them in time order);
+    /// `views` are the robots' camera footprints, for what the frame did not see.
+    pub fn apply(&mut self, o: &ObsInput, views: &Views) {
+        if let Some(n) = o.nothing_seen {
+            self.nothing_seen(o, n, views);
+            return;
+        }
         if self.beyond_wall(o) {
             self.outside_walls += 1;
             return;
@@ -368,6 +402,7 @@ impl Tracker {
                 None => self.spawn(ri, o, &r_eff),
             },
         }
+        self.misses_in_view(ri, o, views);
         self.promote(o.t_s);
         self.prune(o.t_s);
     }
@@ -419,6 +454,79 @@ impl Tracker {
         self.pairs += 1;
         self.held += 1;
         self.record_hit(i, ri, o);
+    }
+
+    /// Negative information: robot `ri`'s frame that reported `o` looked at every
+    /// hypothesis inside its camera's footprint; those it did not report lose existence by
+    /// how likely the detector was to see a ball there.
+    fn misses_in_view(&mut self, ri: usize, o: &ObsInput, views: &Views) {
+        self.miss(ri, o, 1.0, views);
+    }
+
+    /// A robot's status: its camera captured frames since its previous status and reported
+    /// nothing in them.
+    fn nothing_seen(&mut self, o: &ObsInput, n: NothingSeen, views: &Views) {
+        let Some(ri) = self.robots.iter().position(|r| r.robot == o.robot) else {
+            return; // Never a sighting: nothing proves it could have seen the ball.
+        };
+        if self.robots[ri].last_obs_s >= n.since_s {
+            return; // It did report frames since: they told their own misses.
+        }
+        self.t_s = self.t_s.max(o.t_s);
+        self.predict_all(o.t_s);
+        let frames = n.frames.min(self.cfg.views.max_frames_per_status);
+        self.miss(ri, o, frames, views);
+        self.promote(o.t_s);
+    }
+
+    /// `frames` frames of robot `ri`'s camera at `o.t_s` did not see the hypotheses in its
+    /// footprint (except one this very frame reported).
+    fn miss(&mut self, ri: usize, o: &ObsInput, frames: f64, views: &Views) {
+        let vc = &self.cfg.views;
+        if !vc.enabled {
+            return;
+        }
+        let robot = &self.robots[ri];
+        if robot.observations < vc.min_robot_observations
+            || !robot.credible(self.cfg.outlier_rate_max)
+        {
+            return;
+        }
+        let Some(footprint) = views.at(&robot.robot, o.camera, o.t_s, vc.max_age_s) else {
+            return;
+        };
+        let (lo, _) = vc.logodds_range;
+        let me = [o.robot_pose.x_m, o.robot_pose.y_m];
+        for track in &mut self.tracks {
+            let seen_now = track
+                .hits
+                .back()
+                .is_some_and(|h| h.robot == ri && h.t_s == o.t_s);
+            let same_frame = track.last_miss == Some((ri, o.camera, o.t_s));
+            if seen_now || same_frame {
+                continue;
+            }
+            let p = track.filter.position();
+            if !footprint.contains(p) {
+                continue;
+            }
+            let vetoed = track
+                .hits
+                .iter()
+                .rev()
+                .take_while(|h| h.t_s >= o.t_s - vc.veto_s)
+                .any(|h| h.robot != ri);
+            if vetoed {
+                continue;
+            }
+            let recall = vc.recall_at((p[0] - me[0]).hypot(p[1] - me[1])).min(0.99);
+            if recall <= 0.0 {
+                continue;
+            }
+            track.logodds = (track.logodds + frames * (1.0 - recall).ln()).max(lo);
+            track.last_miss = Some((ri, o.camera, o.t_s));
+            self.misses += frames.round() as u64;
+        }
     }
 
     fn predict_all(&mut self, t_s: f64) {
@@ -518,7 +626,10 @@ impl Tracker {
 
     /// `o` (from robot `ri`) supports track `i`.
     fn record_hit(&mut self, i: usize, ri: usize, o: &ObsInput) {
+        let (lo, hi) = self.cfg.views.logodds_range;
+        let gain = self.cfg.views.hit_logodds;
         let track = &mut self.tracks[i];
+        track.logodds = (track.logodds + gain).clamp(lo, hi);
         track.first = None;
         track.last_hit_s = track.last_hit_s.max(o.t_s);
         track.hits.push_back(Hit {
@@ -578,6 +689,8 @@ impl Tracker {
             bounce: None,
             recent: VecDeque::new(),
             first: Some((o.position_m, *r_eff)),
+            logodds: cfg.views.initial_logodds,
+            last_miss: None,
             // A new hypothesis is often a ball just kicked and still sliding.
             boost_until_s: o.t_s + cfg.kick_boost_s,
         };

@@ -116,7 +116,7 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 25] = [
+    let simple: [(&str, &str, &str, u64); 27] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -170,6 +170,18 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "counter",
             "Kicks inferred from runs of surprising sightings.",
             core.kicks_inferred,
+        ),
+        (
+            "rf_misses_in_view_total",
+            "counter",
+            "Frames whose camera footprint held a ball hypothesis the frame did not see (negative information).",
+            core.misses_in_view,
+        ),
+        (
+            "rf_footprints_rejected_total",
+            "counter",
+            "Camera footprints of robot statuses refused (fewer than 3 corners, no area, beyond reach, the whole pitch).",
+            core.footprints_rejected,
         ),
         (
             "rf_robot_slots_reused_total",

@@ -135,6 +135,7 @@ pub fn ball_state() -> BallState {
         status: BallStatus::Tracking,
         last_seen: Some(NOW.offset_secs(-0.035)),
         contributors: vec!["miro1".to_string(), "miro3".to_string()],
+        existence: 0.97,
         model: ModelParams {
             rolling_decel_mps2: 0.45,
             wall_restitution: 0.55,

@@ -189,6 +189,7 @@ prop_compose! {
             status,
             last_seen,
             contributors,
+            existence: 1.0,
             model,
             prediction,
         }

@@ -429,3 +429,144 @@ fn a_moved_ball_kicked_fast_is_found_by_one_slow_robot_within_half_a_second() {
     assert_eq!(pairs_off, 0);
     assert!(err_off > 1.0, "{err_off} m without pairing");
 }
+
+/// Robot `a` at (−1.5, 0) facing +x: its left camera sees the floor from x = −1.3 to 1.6.
+fn wedge() -> Vec<CameraFootprint> {
+    vec![CameraFootprint {
+        camera: Camera::Left,
+        polygon_m: vec![[-1.3, -0.2], [1.6, -1.2], [1.6, 1.2], [-1.3, 0.2]],
+    }]
+}
+
+fn look(f: &mut Fusion, robot: &str, t_s: f64, since_s: Option<f64>, fp: &[CameraFootprint]) {
+    let at = Stamp(T0).offset_secs(t_s);
+    let report = ViewReport {
+        robot,
+        stamp: at,
+        pose: Pose2 {
+            x_m: -1.5,
+            y_m: 0.0,
+            theta_rad: 0.0,
+        },
+        footprints: fp,
+        fps: 10.0,
+        since: since_s.map(|s| Stamp(T0).offset_secs(s)),
+    };
+    let refused = f.footprints(&report, at.offset_secs(0.05));
+    assert!(refused.is_empty(), "{refused:?}");
+}
+
+/// One robot at 10 Hz watches a ball at rest at (0.5, 0.3) for 3 s, sending a status
+/// with footprints every 0.5 s (or none); then the ball is gone (`moved_to` None: picked
+/// up) or put down at `moved_to` within 0.3 s, in view. Returns the served state 1.5 s
+/// after the ball left and the fusion.
+fn ball_taken_away(footprints: bool, moved_to: Option<[f64; 2]>) -> (BallState, Fusion) {
+    let mut f = Fusion::new(FusionConfig::default());
+    let fp = if footprints { wedge() } else { Vec::new() };
+    let mut rng = Lcg(5);
+    let mut seq = 0;
+    let mut last_status = None;
+    for k in 0..45 {
+        let t = k as f64 / 10.0;
+        if k % 5 == 0 {
+            look(&mut f, "a", t, last_status, &fp);
+            last_status = Some(t);
+        }
+        let p = if t < 3.0 {
+            Some([0.5, 0.3])
+        } else if t >= 3.3 {
+            moved_to
+        } else {
+            None
+        };
+        if let Some(p) = p {
+            let z = [p[0] + 0.01 * rng.normal(), p[1] + 0.01 * rng.normal()];
+            ingest(&mut f, &obs("a", seq, t, z, 0.01));
+            seq += 1;
+        }
+    }
+    let st = f.ball_state(Stamp(T0).offset_secs(4.5)).expect("a state");
+    (st, f)
+}
+
+#[test]
+fn a_ball_taken_away_in_view_of_a_robot_fades_from_the_estimate() {
+    let (seen, _) = {
+        let mut f = Fusion::new(FusionConfig::default());
+        look(&mut f, "a", 0.0, None, &wedge());
+        for k in 0..30u64 {
+            ingest(&mut f, &obs("a", k, k as f64 / 10.0, [0.5, 0.3], 0.01));
+        }
+        (f.ball_state(Stamp(T0).offset_secs(2.9)).expect("state"), ())
+    };
+    assert!(seen.existence > 0.95, "a ball seen: {}", seen.existence);
+    let (st, f) = ball_taken_away(true, None);
+    assert!(st.existence < 0.2, "taken away in view: {}", st.existence);
+    assert!(f.counters().misses_in_view > 0);
+    assert!(f.counters().footprints_accepted >= 9);
+    // A robot that sends no footprints keeps today's behaviour: no evidence either way.
+    let (blind, f) = ball_taken_away(false, None);
+    assert!(blind.existence > 0.95, "{}", blind.existence);
+    assert_eq!(f.counters().misses_in_view, 0);
+}
+
+#[test]
+fn a_ball_put_down_elsewhere_in_view_takes_over_at_once() {
+    let b = [-0.5, -0.4];
+    let (st, f) = ball_taken_away(true, Some(b));
+    let err = (st.position_m[0] - b[0]).hypot(st.position_m[1] - b[1]);
+    assert!(err < 0.05, "{err} m from the ball put down");
+    assert!(st.existence > 0.9, "{}", st.existence);
+    assert!(f.counters().misses_in_view > 0);
+}
+
+#[test]
+fn a_robot_that_claims_to_see_the_ball_s_place_cannot_erase_what_another_sees() {
+    let mut f = Fusion::new(FusionConfig::default());
+    let mut rng = Lcg(9);
+    for k in 0..60u64 {
+        let t = k as f64 / 20.0;
+        // `a` sees the ball at (0.5, 0.3) at 20 Hz and sends no footprint.
+        let z = [0.5 + 0.01 * rng.normal(), 0.3 + 0.01 * rng.normal()];
+        ingest(&mut f, &obs("a", k, t, z, 0.01));
+        // `liar` claims a view over it and reports a phantom elsewhere at 20 Hz.
+        if k % 10 == 0 {
+            look(&mut f, "liar", t, (k > 0).then_some(t - 0.5), &wedge());
+        }
+        ingest(&mut f, &obs("liar", k, t + 0.01, [-1.0, -0.1], 0.01));
+        // `ghost` claims the same view and never sends an observation.
+        if k % 10 == 0 {
+            look(&mut f, "ghost", t, (k > 0).then_some(t - 0.5), &wedge());
+        }
+    }
+    let st = f.ball_state(Stamp(T0).offset_secs(3.0)).expect("state");
+    assert!((st.position_m[0] - 0.5).abs() < 0.03 && (st.position_m[1] - 0.3).abs() < 0.03);
+    assert!(st.existence > 0.95, "{}", st.existence);
+}
+
+#[test]
+fn bad_footprints_are_refused_counted_and_change_nothing() {
+    let mut f = Fusion::new(FusionConfig::default());
+    let whole = vec![CameraFootprint {
+        camera: Camera::Right,
+        polygon_m: vec![[-3.0, -2.0], [3.0, -2.0], [3.0, 2.0], [-3.0, 2.0]],
+    }];
+    let line = vec![CameraFootprint {
+        camera: Camera::Left,
+        polygon_m: vec![[0.0, 0.0], [1.0, 0.0]],
+    }];
+    for fp in [whole, line] {
+        let at = Stamp(T0);
+        let report = ViewReport {
+            robot: "a",
+            stamp: at,
+            pose: Pose2::default(),
+            footprints: &fp,
+            fps: 30.0,
+            since: None,
+        };
+        assert_eq!(f.footprints(&report, at).len(), 1);
+    }
+    assert_eq!(f.counters().footprints_rejected, 2);
+    assert_eq!(f.counters().footprints_accepted, 0);
+}

@@ -195,9 +195,10 @@ impl Tracker {
             .iter()
             .filter(|r| t_s - r.last_obs_s < ACTIVE_ROBOT_S)
             .count();
-        let main_silent = self
-            .main()
-            .is_none_or(|m| t_s - m.last_hit_s > cfg.main_silence_s);
+        let main_silent = self.main().is_none_or(|m| {
+            // Silent for a while, or in view of cameras that do not see it.
+            t_s - m.last_hit_s > cfg.main_silence_s || m.existence() < cfg.views.refuted_below
+        });
         let mut best: Option<(usize, usize)> = None;
         for (i, tr) in self.tracks.iter().enumerate() {
             if Some(i) == self.main {

@@ -2,6 +2,7 @@
 
 use crate::estimator::filter::ProcessNoise;
 use crate::estimator::motion::MotionModel;
+use crate::estimator::views::ViewConfig;
 
 /// Tuning of the tracker. `Default` is what the server runs with.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,6 +84,8 @@ pub struct TrackerConfig {
     /// EWMA weight of one observation in a robot's trust estimate.
     pub trust_alpha: f64,
     pub trust_range: (f64, f64),
+    /// Negative information from the robots' camera footprints.
+    pub views: ViewConfig,
 }
 
 impl Default for TrackerConfig {
@@ -135,6 +138,7 @@ impl Default for TrackerConfig {
             near_robot_accel_m2ps3: 2.0,
             trust_alpha: 0.03,
             trust_range: (0.2, 25.0),
+            views: ViewConfig::default(),
         }
     }
 }

@@ -125,6 +125,7 @@ mod tests {
             status: BallStatus::Coasting,
             last_seen: Some(T0.offset_secs(0.9)),
             contributors: vec!["miro1".into()],
+            existence: 1.0,
             model: ModelParams {
                 rolling_decel_mps2: 0.3,
                 wall_restitution: 0.6,
