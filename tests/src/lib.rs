@@ -27,6 +27,7 @@ pub mod sim_log;
 pub mod sim_patches;
 pub mod sim_robots;
 pub mod sim_source;
+pub mod track_cases;
 pub mod track_eval;
 pub mod track_events;
 pub mod track_fixtures;

@@ -1,6 +1,8 @@
 //! `sim_track`: a simulated run's ground truth as a ball-track CSV (`t_s,x_m,y_m`, with a
 //! `# source:` line saying it is simulated), the format `evaluate --tracks` reads. For
-//! sample data and for trying the tracks evaluation without a recording.
+//! sample data and for trying the tracks evaluation without a recording. `--case NAME`
+//! writes one of the synthetic regression tracks instead (`relocations`, `puck`: motion the
+//! scenarios lack; see `harness::track_cases`).
 
 use anyhow::Context;
 use clap::Parser;
@@ -19,6 +21,11 @@ struct Args {
     /// Overrides the scenario's length.
     #[arg(long)]
     duration_s: Option<f64>,
+    /// A synthetic regression case instead of a scenario: `relocations` (a ball picked up
+    /// and put down elsewhere between kicks, two-phase slide and roll, 9 m × 6 m) or
+    /// `puck` (a nearly frictionless puck on a 2 m × 1 m table, many bounces).
+    #[arg(long, conflicts_with_all = ["scenario", "duration_s"])]
+    case: Option<String>,
     /// The CSV file to write.
     #[arg(long)]
     out: PathBuf,
@@ -32,16 +39,28 @@ fn main() {
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(name) = &args.case {
+        let c = harness::track_cases::case(name, args.seed).with_context(|| {
+            format!(
+                "no case {name:?}; the cases are {}",
+                harness::track_cases::CASES.join(", ")
+            )
+        })?;
+        write(&args.out, &to_csv(&c.samples, &c.source))?;
+        eprintln!(
+            "wrote {} ({} samples; evaluate it with --pitch {})",
+            args.out.display(),
+            c.samples.len(),
+            c.pitch
+        );
+        return Ok(());
+    }
     let cfg = sim::SimConfig {
         duration_s: args.duration_s,
         ..sim::SimConfig::default()
     };
     let run = sim::run_scenario(&args.scenario, args.seed, &cfg)?;
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    let csv = to_csv(&sim_track(&run), &sim_source(&run));
-    std::fs::write(&args.out, csv).with_context(|| format!("writing {}", args.out.display()))?;
+    write(&args.out, &to_csv(&sim_track(&run), &sim_source(&run)))?;
     eprintln!(
         "wrote {} ({} samples, {} wall bounces in the truth)",
         args.out.display(),
@@ -49,4 +68,11 @@ fn run(args: Args) -> anyhow::Result<()> {
         run.bounce_count()
     );
     Ok(())
+}
+
+fn write(out: &std::path::Path, csv: &str) -> anyhow::Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(out, csv).with_context(|| format!("writing {}", out.display()))
 }

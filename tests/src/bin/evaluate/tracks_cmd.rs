@@ -88,6 +88,11 @@ pub struct TrackArgs {
     /// never set): its stamps are late by it.
     #[arg(long, default_value_t = 0.0, requires = "tracks")]
     pub clock_offset_ms: f64,
+    /// Name the generated section and chart: `<!-- evaluate-tracks-NAME:begin -->` and
+    /// `tracks-NAME_horizon_error.png`, so runs with different setups keep their own
+    /// sections in one document (letters, digits and `-`).
+    #[arg(long, requires = "tracks", value_parser = section_name)]
+    pub section: Option<String>,
     /// A track with fewer usable rows is an error.
     #[arg(long, default_value_t = ReadOptions::default().min_rows, requires = "tracks")]
     pub min_rows: usize,
@@ -189,11 +194,42 @@ impl TrackArgs {
                 cmd.push_str(&format!(" --{name} {v}"));
             }
         }
+        if let Some(name) = &self.section {
+            cmd.push_str(&format!(" --section {name}"));
+        }
         if let Some(doc) = out.doc {
             cmd.push_str(&format!(" --doc {}", doc.display()));
         }
         cmd.push_str(&format!(" --plots {}", out.plots.display()));
         cmd
+    }
+
+    /// The generated section's markers and the chart's file name.
+    fn section_names(&self) -> (String, String, String) {
+        match &self.section {
+            None => (
+                SECTION_BEGIN.to_string(),
+                SECTION_END.to_string(),
+                "tracks_horizon_error.png".to_string(),
+            ),
+            Some(n) => (
+                format!("<!-- evaluate-tracks-{n}:begin -->"),
+                format!("<!-- evaluate-tracks-{n}:end -->"),
+                format!("tracks-{n}_horizon_error.png"),
+            ),
+        }
+    }
+}
+
+fn section_name(s: &str) -> Result<String, String> {
+    let ok =
+        !s.is_empty() && s.len() <= 40 && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '-');
+    if ok {
+        Ok(s.to_string())
+    } else {
+        Err(format!(
+            "a section name is 1 to 40 letters, digits or '-', not {s:?}"
+        ))
     }
 }
 
@@ -254,14 +290,15 @@ pub fn run(args: &TrackArgs, out: &Outputs) -> anyhow::Result<()> {
     if let Some(path) = out.markdown {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
     }
+    let (begin, end, chart) = args.section_names();
     if let Some(path) = out.doc {
         let section = doc_section(args, out, &rep, &text, all.len(), secs);
-        harness::report::rewrite_section_between(path, SECTION_BEGIN, SECTION_END, &section)?;
+        harness::report::rewrite_section_between(path, &begin, &end, &section)?;
         eprintln!("updated {}", path.display());
     }
     std::fs::create_dir_all(out.plots)
         .with_context(|| format!("creating {}", out.plots.display()))?;
-    let plot = out.plots.join("tracks_horizon_error.png");
+    let plot = out.plots.join(chart);
     write_png(&track_report::horizon_chart(&rep), &plot)?;
     eprintln!("wrote {}", plot.display());
     Ok(())
