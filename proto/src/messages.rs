@@ -121,6 +121,22 @@ pub struct ModelParams {
     pub decel_samples: u32,
     /// Number of bounces that informed the restitution estimate.
     pub restitution_samples: u32,
+    /// Wall tangential retention (tangential speed out / in), learned from the same
+    /// bounces. Absent in states from before it was learned (read as 0.85).
+    #[serde(default = "default_tangential_retention")]
+    pub tangential_retention: f64,
+    /// Deceleration while the ball slides just after a kick (the two-phase model), learned
+    /// from kicks. Absent in states from before it existed (read as 3.0).
+    #[serde(default = "default_slide_decel")]
+    pub slide_decel_mps2: f64,
+}
+
+fn default_tangential_retention() -> f64 {
+    0.85
+}
+
+fn default_slide_decel() -> f64 {
+    3.0
 }
 
 /// A point on the predicted path.

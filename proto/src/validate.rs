@@ -302,8 +302,23 @@ impl Validate for BallState {
         check_finite("existence", &[self.existence])?;
         check_range("existence", self.existence, 0.0, 1.0)?;
         let m = &self.model;
-        check_finite("model", &[m.rolling_decel_mps2, m.wall_restitution])?;
+        check_finite(
+            "model",
+            &[
+                m.rolling_decel_mps2,
+                m.wall_restitution,
+                m.tangential_retention,
+                m.slide_decel_mps2,
+            ],
+        )?;
         check_range("model.wall_restitution", m.wall_restitution, 0.0, 1.0)?;
+        check_range(
+            "model.tangential_retention",
+            m.tangential_retention,
+            0.0,
+            1.0,
+        )?;
+        check_range("model.slide_decel_mps2", m.slide_decel_mps2, 0.0, 100.0)?;
         check_range("model.rolling_decel_mps2", m.rolling_decel_mps2, 0.0, 100.0)?;
         ctx.check_position(self.position_m)?;
         ctx.check_stamp(self.stamp)?;

@@ -301,6 +301,8 @@ mod ball_state {
                 ("covariance", |m, v| m.covariance[7] = v),
                 ("model", |m, v| m.model.rolling_decel_mps2 = v),
                 ("model", |m, v| m.model.wall_restitution = v),
+                ("model", |m, v| m.model.tangential_retention = v),
+                ("model", |m, v| m.model.slide_decel_mps2 = v),
                 ("existence", |m, v| m.existence = v),
                 ("horizon_s", |m, v| m.prediction.horizon_s = v),
                 ("samples", |m, v| m.prediction.samples[0].t_s = v),
@@ -335,6 +337,12 @@ mod ball_state {
                     m.model.rolling_decel_mps2 = v
                 }),
                 ("horizon_s", -2.0, |m, v| m.prediction.horizon_s = v),
+                ("model.tangential_retention", 1.5, |m, v| {
+                    m.model.tangential_retention = v
+                }),
+                ("model.slide_decel_mps2", -1.0, |m, v| {
+                    m.model.slide_decel_mps2 = v
+                }),
                 ("existence", 1.5, |m, v| m.existence = v),
                 ("existence", -0.5, |m, v| m.existence = v),
             ],

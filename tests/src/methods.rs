@@ -38,8 +38,8 @@ pub fn oracle_config(run: &SimRun) -> FusionConfig {
     let t = &mut cfg.tracker;
     t.motion.decel_mps2 = run.params.rolling_decel_mps2;
     t.motion.restitution = run.params.restitution_mean;
-    t.decel_sigma_mps2 = 1e-6;
-    t.restitution_sigma = 1e-6;
+    t.surface.decel_sigma_mps2 = 1e-6;
+    t.surface.restitution_sigma = 1e-6;
     t.learn_decel = false;
     t.learn_restitution = false;
     cfg

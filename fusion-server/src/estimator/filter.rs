@@ -84,6 +84,8 @@ pub struct BallFilter {
     p: Cov,
     /// Filter time in seconds since the fusion epoch.
     t_s: f64,
+    /// The ball slides while faster than this ([`MotionModel::roll_from_mps`]).
+    roll_from_mps: f64,
 }
 
 impl BallFilter {
@@ -107,7 +109,12 @@ impl BallFilter {
         p[(3, 3)] = vv;
         p[(DECEL, DECEL)] = decel_var;
         p[(RESTITUTION, RESTITUTION)] = restitution_var;
-        BallFilter { x, p, t_s }
+        BallFilter {
+            x,
+            p,
+            t_s,
+            roll_from_mps: 0.0,
+        }
     }
 
     /// A filter started from two sightings of a moving ball, `z0` (covariance `r0`) at
@@ -165,6 +172,20 @@ impl BallFilter {
         self.p[(k, k)] = variance;
     }
 
+    /// The ball slides (it was just kicked) until its speed falls to `roll_from_mps`.
+    pub fn slide_until(&mut self, roll_from_mps: f64) {
+        self.roll_from_mps = if roll_from_mps.is_finite() {
+            roll_from_mps.max(0.0)
+        } else {
+            0.0
+        };
+    }
+
+    /// Whether the ball still slides after a kick.
+    pub fn sliding(&self) -> bool {
+        self.roll_from_mps > 0.0
+    }
+
     /// Keeps the restitution within `[lo, hi]` (a learning step's bound).
     pub fn clamp_restitution(&mut self, lo: f64, hi: f64) {
         self.x[RESTITUTION] = self.x[RESTITUTION].clamp(lo, hi);
@@ -183,6 +204,7 @@ impl BallFilter {
         MotionModel {
             decel_mps2: self.x[DECEL],
             restitution: self.x[RESTITUTION],
+            roll_from_mps: self.roll_from_mps,
             ..*base
         }
     }
@@ -199,10 +221,15 @@ impl BallFilter {
         if dt_s <= 0.0 {
             return None;
         }
-        let (x, p, flight) = propagate(&self.x, &self.p, dt_s, base, bounds, noise);
+        let base = MotionModel {
+            roll_from_mps: self.roll_from_mps,
+            ..*base
+        };
+        let (x, p, flight) = propagate(&self.x, &self.p, dt_s, &base, bounds, noise);
         self.x = x;
         self.p = p;
         self.t_s = t_s;
+        self.roll_from_mps = flight.roll_from_mps;
         Some(flight)
     }
 
@@ -306,7 +333,8 @@ fn jacobian_and_noise(flight: &Flight, model: &MotionModel, noise: &ProcessNoise
                 dt_s,
                 moving_s,
                 direction,
-            } => segment(dt_s, moving_s, direction, noise),
+                rolling,
+            } => segment(dt_s, moving_s, direction, rolling, noise),
             Piece::Hit(hit) => {
                 let axis = hit.axis;
                 let (n, t) = (2 + axis, 2 + (1 - axis));
@@ -327,7 +355,13 @@ fn jacobian_and_noise(flight: &Flight, model: &MotionModel, noise: &ProcessNoise
     (f, q)
 }
 
-fn segment(dt_s: f64, moving_s: f64, dir: [f64; 2], noise: &ProcessNoise) -> (Cov, Cov) {
+fn segment(
+    dt_s: f64,
+    moving_s: f64,
+    dir: [f64; 2],
+    rolling: bool,
+    noise: &ProcessNoise,
+) -> (Cov, Cov) {
     let mut a = Cov::identity();
     let mut q = Cov::zeros();
     if moving_s > 0.0 || !noise.rest_velocity_tau_s.is_finite() {
@@ -371,15 +405,16 @@ fn segment(dt_s: f64, moving_s: f64, dir: [f64; 2], noise: &ProcessNoise) -> (Co
             q[(2 + k, 2 + k)] = q_vv;
         }
     }
-    let half_m2 = 0.5 * moving_s * moving_s;
+    // The rolling deceleration acts only while the ball rolls (a sliding one is not a state).
+    let m = if rolling { moving_s } else { 0.0 };
+    let half_m2 = 0.5 * m * m;
     for k in 0..2 {
         a[(k, DECEL)] = -half_m2 * dir[k];
-        a[(2 + k, DECEL)] = -moving_s * dir[k];
+        a[(2 + k, DECEL)] = -m * dir[k];
     }
     // The deceleration's random walk, integrated exactly through the segment's linear
     // dynamics (ṗ = v, v̇ = −a·u, ȧ = w), so that splitting a segment changes nothing.
     let qd = noise.decel_per_s;
-    let m = moving_s;
     for i in 0..2 {
         for j in 0..2 {
             let uu = dir[i] * dir[j];

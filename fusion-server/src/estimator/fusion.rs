@@ -465,7 +465,7 @@ impl Fusion {
         let mut f = track.filter.clone();
         let t_s = self.t_of(at);
         let noise = tracker.noise_for(track);
-        f.predict_to(t_s, &tracker.config().motion, tracker.bounds(), &noise);
+        f.predict_to(t_s, &tracker.motion(), tracker.bounds(), &noise);
         Some(f)
     }
 
@@ -496,6 +496,7 @@ impl Fusion {
             .filter_map(|i| tracker.robot_name(i).map(|n| n.to_string()))
             .collect();
         let (decel_samples, restitution_samples) = tracker.learning_counts();
+        let motion = tracker.motion();
         Some(BallState {
             version: proto::VERSION,
             stamp: self.stamp_of(f.time_s()),
@@ -511,6 +512,8 @@ impl Fusion {
                 wall_restitution: f.state()[RESTITUTION],
                 decel_samples,
                 restitution_samples,
+                tangential_retention: motion.tangential_retention,
+                slide_decel_mps2: motion.slide_decel_mps2,
             },
             prediction: self.prediction_of(&f, self.cfg.horizon_s),
         })
@@ -521,7 +524,7 @@ impl Fusion {
         predict::path(
             f.position(),
             f.velocity(),
-            &f.model(&tracker.config().motion),
+            &f.model(&tracker.motion()),
             tracker.bounds(),
             self.stamp_of(f.time_s()),
             horizon_s,
@@ -547,7 +550,7 @@ impl Fusion {
         intercept(
             f.position(),
             f.velocity(),
-            &f.model(&tracker.config().motion),
+            &f.model(&tracker.motion()),
             tracker.bounds(),
             robot_m,
             speed_mps,

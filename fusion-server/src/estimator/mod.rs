@@ -5,6 +5,8 @@
 //! - [`filter`]: one extended Kalman filter over [x, y, vx, vy, decel, restitution].
 //! - [`tracker`]: hypotheses, gating, promotion, per-robot trust.
 //! - [`fusion`]: capture-time ordering, the late-observation window, the public API.
+//! - [`surface`]: the floor's decelerations and the walls' restitution, learned from every
+//!   stretch and bounce the estimate is seen through.
 //! - [`views`]: the robots' camera footprints, and a ball in view that is not seen.
 //! - [`predict`]: path, bounces, stop point; [`intercept`]: where a robot meets the ball.
 
@@ -13,11 +15,13 @@ pub mod fusion;
 pub mod intercept;
 pub mod motion;
 pub mod predict;
+pub mod surface;
 pub mod tracker;
 pub mod views;
 
 pub use fusion::{Fusion, FusionConfig, FusionCounters, Ingest, ViewReport};
 pub use intercept::InterceptSolution;
 pub use motion::{Bounds, MotionModel};
+pub use surface::{Learned, SurfaceConfig, SurfaceCounts};
 pub use tracker::{ObsInput, RobotTrust, TrackerConfig};
 pub use views::{Footprint, FootprintError, ViewConfig};

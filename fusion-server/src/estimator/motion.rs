@@ -1,6 +1,8 @@
-//! The ball's motion model in closed form: constant rolling deceleration opposite to the
-//! velocity, a stop below a speed threshold, and exact wall reflections whose times of
-//! impact are solved analytically, any number of them within one step.
+//! The ball's motion model in closed form: after a kick the ball slides at a high constant
+//! deceleration until its speed falls to a share of the kick's (the two-phase model of the
+//! leading small-size trackers), then rolls at a low one, stops below a speed threshold, and
+//! reflects off the walls exactly, the times of impact solved analytically, any number of
+//! them within one step. A wall ends the slide.
 //!
 //! The flight is a *flow*: flying `t1` then `t2` gives the same state as flying `t1 + t2`,
 //! which is what makes prediction and filtering consistent at any step size.
@@ -46,11 +48,19 @@ impl Bounds {
     }
 }
 
-/// Parameters of the motion model.
+/// Parameters of the motion model, and the one piece of state a flight needs besides
+/// position and velocity: whether the ball still slides.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionModel {
     /// Constant deceleration opposite to the velocity while rolling.
     pub decel_mps2: f64,
+    /// Constant deceleration while sliding, just after a kick.
+    pub slide_decel_mps2: f64,
+    /// A kicked ball slides until its speed falls to this share of the kick's.
+    pub roll_ratio: f64,
+    /// The ball slides while faster than this (`roll_ratio` × the kick's speed after a kick;
+    /// 0 once it rolls).
+    pub roll_from_mps: f64,
     /// Normal speed out / normal speed in at a wall.
     pub restitution: f64,
     /// Tangential speed out / tangential speed in at a wall.
@@ -63,6 +73,9 @@ impl Default for MotionModel {
     fn default() -> Self {
         MotionModel {
             decel_mps2: 0.3,
+            slide_decel_mps2: 3.0,
+            roll_ratio: 0.64,
+            roll_from_mps: 0.0,
             restitution: 0.5,
             tangential_retention: 0.85,
             stop_speed_mps: 0.02,
@@ -86,11 +99,13 @@ pub struct WallHit {
 /// One piece of a flight, in order: straight decelerating segments and wall hits.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Piece {
-    /// `dt_s` of time, of which the ball moved for `moving_s` along unit `direction`.
+    /// `dt_s` of time, of which the ball moved for `moving_s` along unit `direction`,
+    /// rolling (at the rolling deceleration) or sliding.
     Segment {
         dt_s: f64,
         moving_s: f64,
         direction: [f64; 2],
+        rolling: bool,
     },
     Hit(WallHit),
 }
@@ -102,6 +117,8 @@ pub struct Flight {
     pub velocity: [f64; 2],
     /// When the ball came to rest, seconds after the start, if it did during the flight.
     pub stopped_at_s: Option<f64>,
+    /// [`MotionModel::roll_from_mps`] at the end: 0 once the ball rolls.
+    pub roll_from_mps: f64,
     pub pieces: Vec<Piece>,
 }
 
@@ -138,7 +155,9 @@ pub fn fly(
     model: &MotionModel,
     bounds: &Bounds,
 ) -> Flight {
-    let a = model.decel_mps2.max(0.0);
+    let a_roll = model.decel_mps2.max(0.0);
+    let a_slide = model.slide_decel_mps2.max(a_roll);
+    let mut roll_from = model.roll_from_mps.max(0.0);
     let mut p = position;
     let mut v = velocity;
     let mut t = 0.0;
@@ -158,16 +177,24 @@ pub fn fly(
                 dt_s: remaining,
                 moving_s: 0.0,
                 direction: [0.0, 0.0],
+                rolling: true,
             });
             break;
         }
         let u = [v[0] / s, v[1] / s];
+        let sliding = roll_from > 0.0 && s > roll_from && a_slide > a_roll;
+        let a = if sliding { a_slide } else { a_roll };
         let t_stop = if a > 0.0 {
             (s - model.stop_speed_mps).max(0.0) / a
         } else {
             f64::INFINITY
         };
-        let horizon = remaining.min(t_stop);
+        let t_roll = if sliding {
+            (s - roll_from) / a_slide
+        } else {
+            f64::INFINITY
+        };
+        let horizon = remaining.min(t_stop).min(t_roll);
         let (t_hit, walls_hit) = first_impact(p, u, s, a, bounds, horizon);
         let step = t_hit.unwrap_or(horizon);
         let travelled = s * step - 0.5 * a * step * step;
@@ -178,6 +205,7 @@ pub fn fly(
             dt_s: step,
             moving_s: step,
             direction: u,
+            rolling: !sliding,
         });
         t += step;
         if t_hit.is_some() {
@@ -197,6 +225,7 @@ pub fn fly(
                 v[1 - axis] *= model.tangential_retention;
                 pieces.push(Piece::Hit(WallHit { position: p, ..hit }));
             }
+            roll_from = 0.0;
             if speed(v) < model.stop_speed_mps {
                 v = [0.0, 0.0];
                 stopped_at_s = Some(t);
@@ -204,15 +233,23 @@ pub fn fly(
         } else if step >= t_stop && t_stop <= remaining {
             v = [0.0, 0.0];
             stopped_at_s = Some(t);
+        } else if step >= t_roll && t_roll <= remaining {
+            // Slid down to the rolling speed: it rolls from here.
+            roll_from = 0.0;
+            continue;
         }
         if step <= TIME_EPS_S && t_hit.is_none() {
             break;
         }
     }
+    if stopped_at_s.is_some() || speed(v) == 0.0 {
+        roll_from = 0.0;
+    }
     Flight {
         position: p,
         velocity: v,
         stopped_at_s,
+        roll_from_mps: roll_from,
         pieces,
     }
 }
@@ -411,6 +448,112 @@ mod tests {
                 assert!((whole.velocity[k] - c.velocity[k]).abs() < 1e-9);
             }
             assert_eq!(whole.hits().count(), a.hits().count() + c.hits().count());
+        }
+    }
+
+    /// Small steps of the two-phase physics: slide at `slide_decel_mps2` while faster than
+    /// `roll_from_mps`, roll after; a wall ends the slide.
+    fn integrate_two_phase(
+        p0: [f64; 2],
+        v0: [f64; 2],
+        t_s: f64,
+        m: &MotionModel,
+        b: &Bounds,
+    ) -> ([f64; 2], [f64; 2]) {
+        let dt = 1e-5;
+        let (mut p, mut v, mut roll_from) = (p0, v0, m.roll_from_mps);
+        for _ in 0..(t_s / dt).round() as usize {
+            let s = speed(v);
+            if s < m.stop_speed_mps {
+                v = [0.0, 0.0];
+                continue;
+            }
+            let a = if roll_from > 0.0 && s > roll_from {
+                m.slide_decel_mps2
+            } else {
+                m.decel_mps2
+            };
+            let s_new = (s - a * dt).max(0.0);
+            let mid = 0.5 * (s + s_new) / s;
+            p = [p[0] + v[0] * mid * dt, p[1] + v[1] * mid * dt];
+            v = [v[0] * s_new / s, v[1] * s_new / s];
+            for (axis, lo, hi) in [(0, b.x_min, b.x_max), (1, b.y_min, b.y_max)] {
+                let out = (p[axis] > hi && v[axis] > 0.0) || (p[axis] < lo && v[axis] < 0.0);
+                if out {
+                    let wall = if p[axis] > hi { hi } else { lo };
+                    p[axis] = 2.0 * wall - p[axis];
+                    v[axis] *= -m.restitution;
+                    v[1 - axis] *= m.tangential_retention;
+                    roll_from = 0.0;
+                }
+            }
+        }
+        (p, v)
+    }
+
+    #[test]
+    fn a_kicked_ball_slides_then_rolls() {
+        let b = bounds();
+        let m = MotionModel {
+            roll_from_mps: 0.64 * 3.0,
+            ..MotionModel::default()
+        };
+        // Still sliding after 0.2 s: 3 m/s² off 3 m/s.
+        let f = fly([-1.5, 0.0], [3.0, 0.0], 0.2, &m, &b);
+        assert!((f.velocity[0] - 2.4).abs() < 1e-9);
+        assert_eq!(f.roll_from_mps, 1.92);
+        assert!(
+            f.pieces
+                .iter()
+                .all(|p| matches!(p, Piece::Segment { rolling: false, .. }))
+        );
+        // Rolls from 1.92 m/s (after 0.36 s) at 0.3 m/s².
+        let f = fly([-1.5, 0.0], [3.0, 0.0], 0.6, &m, &b);
+        let (ts, tr) = (0.36, 0.24);
+        let x = -1.5 + 3.0 * ts - 1.5 * ts * ts + 1.92 * tr - 0.15 * tr * tr;
+        assert!((f.position[0] - x).abs() < 1e-9, "{} vs {x}", f.position[0]);
+        assert!((f.velocity[0] - (1.92 - 0.3 * tr)).abs() < 1e-9);
+        assert_eq!(f.roll_from_mps, 0.0);
+        // Against small steps, through bounces (which end the slide).
+        for (p0, v0, t) in [
+            ([0.0, 0.0], [2.5, 1.2], 1.5),
+            ([1.2, 0.9], [3.0, 0.2], 0.4),
+            ([-0.5, 0.3], [-0.4, 3.5], 2.0),
+        ] {
+            let m = MotionModel {
+                roll_from_mps: 0.64 * speed(v0),
+                ..MotionModel::default()
+            };
+            let f = fly(p0, v0, t, &m, &b);
+            let (p, v) = integrate_two_phase(p0, v0, t, &m, &b);
+            for k in 0..2 {
+                assert!((f.position[k] - p[k]).abs() < 1e-3, "{f:?} vs {p:?}");
+                assert!((f.velocity[k] - v[k]).abs() < 1e-3, "{f:?} vs {v:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_sliding_flight_is_a_flow() {
+        let b = bounds();
+        let (p0, v0) = ([0.3, -0.4], [2.6, 1.3]);
+        let m = MotionModel {
+            roll_from_mps: 0.64 * speed(v0),
+            ..MotionModel::default()
+        };
+        for (t1, t2) in [(0.1, 0.9), (0.25, 0.05), (0.01, 3.0), (0.6, 0.6)] {
+            let whole = fly(p0, v0, t1 + t2, &m, &b);
+            let a = fly(p0, v0, t1, &m, &b);
+            let m2 = MotionModel {
+                roll_from_mps: a.roll_from_mps,
+                ..m
+            };
+            let c = fly(a.position, a.velocity, t2, &m2, &b);
+            for k in 0..2 {
+                assert!((whole.position[k] - c.position[k]).abs() < 1e-9);
+                assert!((whole.velocity[k] - c.velocity[k]).abs() < 1e-9);
+            }
+            assert_eq!(whole.roll_from_mps, c.roll_from_mps);
         }
     }
 

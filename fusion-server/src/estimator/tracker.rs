@@ -9,7 +9,8 @@
 //! change point ([`onset`]). docs/fusion.md states the rules.
 
 use super::filter::{BallFilter, DECEL, Innovation, Learn, ModelPrior, ProcessNoise, RESTITUTION};
-use super::motion::{Bounds, speed};
+use super::motion::{Bounds, MotionModel, speed};
+use super::surface::{BounceEvent, Surface};
 use super::views::{Views, existence};
 use nalgebra::Matrix2;
 use proto::{Camera, Pose2};
@@ -22,7 +23,7 @@ mod onset;
 mod trust;
 pub use acquire::{CameraClocks, FrameClock, Hit};
 pub use config::TrackerConfig;
-use onset::{OnsetSighting, Recent};
+use onset::{Kick, OnsetSighting, Recent};
 pub use trust::RobotTrust;
 
 /// One observation as the core sees it: capture time already on the fusion time axis.
@@ -55,10 +56,10 @@ pub struct Track {
     pub born_s: f64,
     /// Recent supporting observations.
     hits: VecDeque<Hit>,
+    /// The ball may slide until then (after a kick or a bounce): its filter does not learn
+    /// the rolling deceleration.
     quiet_until_s: f64,
     boost_until_s: f64,
-    /// A well-observed wall bounce whose restitution the next observations may learn.
-    bounce: Option<BounceLearning>,
     /// The last few sightings, each with the filter from just before it (see [`onset`]).
     recent: VecDeque<Recent>,
     /// The sighting that started this hypothesis, while it is its only one: a later
@@ -68,15 +69,6 @@ pub struct Track {
     logodds: f64,
     /// The frame whose miss was counted last (robot, camera, capture time): one per frame.
     last_miss: Option<(usize, Camera, f64)>,
-}
-
-/// What the observations after one well-observed bounce may teach.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct BounceLearning {
-    restitution_before: f64,
-    until_s: f64,
-    /// An observation has informed this bounce (it is counted once).
-    counted: bool,
 }
 
 impl Track {
@@ -127,8 +119,12 @@ pub struct Tracker {
     main: Option<usize>,
     robots: Vec<RobotTrust>,
     next_id: u64,
+    /// The floor and walls, learned from the estimate's stretches and bounces.
+    surface: Surface,
+    /// The [`Surface::version`] the filters' model states were last set from.
+    surface_synced: u64,
+    /// Observations that informed the estimate's rolling deceleration.
     decel_updates: u32,
-    restitution_updates: u32,
     /// Observations dropped for lying beyond a wall, where no ball can be.
     outside_walls: u64,
     /// Hypotheses restarted through two sightings (two-point initiation).
@@ -170,6 +166,12 @@ const ROBOT_SLOT_IDLE_S: f64 = 30.0;
 
 impl Tracker {
     pub fn new(cfg: Arc<TrackerConfig>, bounds: Bounds) -> Self {
+        let surface = Surface::new(
+            &cfg.motion,
+            cfg.surface,
+            cfg.learn_decel,
+            cfg.learn_restitution,
+        );
         Tracker {
             cfg,
             bounds,
@@ -177,12 +179,13 @@ impl Tracker {
             main: None,
             robots: Vec::new(),
             next_id: 1,
+            surface,
+            surface_synced: 0,
             decel_updates: 0,
             kicks_inferred: 0,
             singular_updates: 0,
             held: 0,
             robot_slots_reused: 0,
-            restitution_updates: 0,
             outside_walls: 0,
             pairs: 0,
             misses: 0,
@@ -262,7 +265,48 @@ impl Tracker {
 
     /// Observations / bounces that informed the learned deceleration / restitution.
     pub fn learning_counts(&self) -> (u32, u32) {
-        (self.decel_updates, self.restitution_updates)
+        (self.decel_updates, self.surface.counts().bounces)
+    }
+
+    /// The learned floor and walls.
+    pub fn surface(&self) -> &Surface {
+        &self.surface
+    }
+
+    /// The motion model with what has been learned about the floor and the walls.
+    pub fn motion(&self) -> MotionModel {
+        self.surface.model(&self.cfg.motion)
+    }
+
+    /// The learned values as a filter's prior: (mean, variance) of each.
+    /// The deceleration is the estimate's own while there is one (it follows the floor
+    /// under the ball), else the surface's.
+    fn learned_prior(&self) -> ModelPrior {
+        let (d, e) = (self.surface.rolling_decel(), self.surface.restitution());
+        let decel = match self.main() {
+            Some(m) => (
+                m.filter.state()[DECEL],
+                m.filter.covariance()[(DECEL, DECEL)],
+            ),
+            None => (d.mean, d.variance),
+        };
+        ModelPrior {
+            decel,
+            restitution: (e.mean, e.variance),
+        }
+    }
+
+    /// Sets every hypothesis' model states to the learned values when they changed.
+    fn sync_surface(&mut self) {
+        if self.surface.version() == self.surface_synced {
+            return;
+        }
+        self.surface_synced = self.surface.version();
+        let prior = self.learned_prior();
+        for tr in &mut self.tracks {
+            tr.filter
+                .reset_component(RESTITUTION, prior.restitution.0, prior.restitution.1);
+        }
     }
 
     /// The process noise for a track predicted from its current state.
@@ -289,9 +333,12 @@ impl Tracker {
     }
 
     fn near_robot(&self, p: [f64; 2], t_s: f64) -> bool {
+        self.robot_within(p, t_s, self.cfg.near_robot_m)
+    }
+
+    fn robot_within(&self, p: [f64; 2], t_s: f64, range_m: f64) -> bool {
         self.robots.iter().any(|r| {
-            t_s - r.last_obs_s < 1.0
-                && (r.pose.x_m - p[0]).hypot(r.pose.y_m - p[1]) < self.cfg.near_robot_m
+            t_s - r.last_obs_s < 1.0 && (r.pose.x_m - p[0]).hypot(r.pose.y_m - p[1]) < range_m
         })
     }
 
@@ -385,14 +432,14 @@ impl Tracker {
             None => self.kick_candidate(&sighting),
         };
         match (kicked, best) {
-            (Some((m, filter)), _) => {
-                self.kicked(m, filter, o.t_s);
+            (Some((m, kick)), _) => {
+                self.kicked(m, kick, o.t_s);
                 self.remember(m, &sighting);
                 self.update_track(m, ri, o, &r_eff);
             }
             (None, Some((i, d2))) => {
-                if let Some(filter) = self.note_onset(i, d2, &sighting) {
-                    self.kicked(i, filter, o.t_s);
+                if let Some(kick) = self.note_onset(i, d2, &sighting) {
+                    self.kicked(i, kick, o.t_s);
                 }
                 self.remember(i, &sighting);
                 self.update_track(i, ri, o, &r_eff);
@@ -405,6 +452,7 @@ impl Tracker {
         self.misses_in_view(ri, o, views);
         self.promote(o.t_s);
         self.prune(o.t_s);
+        self.sync_surface();
     }
 
     /// The hypothesis seen once whose sighting `o` continues at the lowest plausible speed.
@@ -477,6 +525,7 @@ impl Tracker {
         let frames = n.frames.min(self.cfg.views.max_frames_per_status);
         self.miss(ri, o, frames, views);
         self.promote(o.t_s);
+        self.sync_surface();
     }
 
     /// `frames` frames of robot `ri`'s camera at `o.t_s` did not see the hypotheses in its
@@ -530,51 +579,59 @@ impl Tracker {
     }
 
     fn predict_all(&mut self, t_s: f64) {
-        let cfg = self.cfg.clone();
+        let motion = self.motion();
+        let mut bounces = Vec::new();
         for i in 0..self.tracks.len() {
             let noise = self.noise_for(&self.tracks[i]);
             let track = &mut self.tracks[i];
-            let velocity_var = [
-                track.filter.covariance()[(2, 2)],
-                track.filter.covariance()[(3, 3)],
-            ];
             let flown_from_s = track.filter.time_s();
-            let Some(flight) = track
-                .filter
-                .predict_to(t_s, &cfg.motion, &self.bounds, &noise)
-            else {
+            let Some(flight) = track.filter.predict_to(t_s, &motion, &self.bounds, &noise) else {
                 continue;
             };
-            let Some(hit) = flight.hits().next() else {
+            if flight.hits().next().is_some() {
+                track.quiet_until_s = track.quiet_until_s.max(t_s + self.cfg.learn_quiet_s);
+            }
+            if Some(i) != self.main {
                 continue;
-            };
-            // The ball slides for a moment after a bounce.
-            track.quiet_until_s = track.quiet_until_s.max(t_s + cfg.learn_quiet_s);
-            // Only a bounce met at a known speed, by a ball seen just before, tells the
-            // walls' restitution; the others are flown through with it as it is.
-            let v_n = hit.velocity_in[hit.axis].abs();
-            let sigma_n = velocity_var[hit.axis].max(0.0).sqrt();
-            let bounce_t_s = flown_from_s + hit.t_s;
-            let well_observed = v_n >= cfg.bounce_learn_min_speed_mps
-                && sigma_n <= cfg.bounce_learn_max_rel_sigma * v_n
-                && bounce_t_s - track.last_hit_s <= cfg.bounce_learn_seen_s;
-            track.bounce = well_observed.then(|| BounceLearning {
-                restitution_before: track.filter.state()[RESTITUTION],
-                until_s: bounce_t_s + cfg.bounce_learn_window_s,
-                counted: false,
-            });
+            }
+            // The estimate met a wall: the sightings on either side measure the bounce.
+            let b = &self.bounds;
+            for hit in flight.hits() {
+                let other = 1 - hit.axis;
+                let (lo, hi) = if other == 0 {
+                    (b.x_min, b.x_max)
+                } else {
+                    (b.y_min, b.y_max)
+                };
+                let margin = self.cfg.surface.bounce_max_offset_m;
+                let corner_walls = if other == 0 { [1, 0] } else { [3, 2] };
+                let corner = (b.walls[corner_walls[0]] && hit.position[other] < lo + margin)
+                    || (b.walls[corner_walls[1]] && hit.position[other] > hi - margin);
+                bounces.push(BounceEvent {
+                    t_s: flown_from_s + hit.t_s,
+                    axis: hit.axis,
+                    wall_m: hit.position[hit.axis],
+                    normal_velocity_in_mps: hit.velocity_in[hit.axis],
+                    corner,
+                });
+            }
+        }
+        for b in bounces {
+            self.surface.bounce(b);
         }
     }
 
-    /// Track `i` was kicked: its filter is the re-initialised one.
-    fn kicked(&mut self, i: usize, filter: BallFilter, t_s: f64) {
+    /// Track `i` was kicked (found at `t_s`): its filter is the re-initialised one.
+    fn kicked(&mut self, i: usize, kick: Kick, t_s: f64) {
         let cfg = &self.cfg;
         let track = &mut self.tracks[i];
-        track.filter = filter;
+        track.filter = kick.filter;
         track.recent.clear();
-        track.bounce = None;
         track.boost_until_s = track.boost_until_s.max(t_s + cfg.kick_boost_s);
         track.quiet_until_s = track.quiet_until_s.max(t_s + cfg.learn_quiet_s);
+        if self.main == Some(i) {
+            self.surface.kick(kick.t_s, kick.speed_mps);
+        }
     }
 
     fn update_track(&mut self, i: usize, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
@@ -582,46 +639,40 @@ impl Tracker {
         if !is_main {
             self.held += 1;
         }
-        let near = self.near_robot(self.tracks[i].filter.position(), o.t_s);
+        let position = self.tracks[i].filter.position();
+        let near = self.near_robot(position, o.t_s);
+        let touching = self.robot_within(position, o.t_s, self.cfg.surface.touch_m);
         let cfg = &self.cfg;
-        let track = &self.tracks[i];
-        let learn_decel = is_main
-            && cfg.learn_decel
-            && !near
-            && o.t_s >= track.quiet_until_s
-            && o.t_s >= track.boost_until_s
-            && speed(track.filter.velocity()) > cfg.learn_min_speed_mps;
-        let learn_restitution = is_main
-            && cfg.learn_restitution
-            && !near
-            && o.t_s >= track.boost_until_s
-            && track.bounce.is_some_and(|b| o.t_s <= b.until_s);
-        let max_step = cfg.restitution_max_step;
         let track = &mut self.tracks[i];
+        // The rolling deceleration is learned by the gain too, stretch by stretch (the
+        // surface's value is the floor's, for new estimates); the walls only by the surface.
         let learn = Learn {
-            decel: learn_decel,
-            restitution: learn_restitution,
+            decel: is_main
+                && cfg.learn_decel
+                && !near
+                && o.t_s >= track.quiet_until_s
+                && o.t_s >= track.boost_until_s
+                && speed(track.filter.velocity()) > cfg.learn_min_speed_mps,
+            restitution: false,
         };
         if track.filter.update(o.position_m, r_eff, learn).is_err() {
             self.singular_updates += 1;
             return;
         }
-        if let Some(b) = track.bounce.as_mut().filter(|_| learn_restitution) {
-            let (lo, hi) = (
-                b.restitution_before - max_step,
-                b.restitution_before + max_step,
-            );
-            track.filter.clamp_restitution(lo, hi);
-            if !b.counted {
-                // Count each bounce once, at the first observation after it that informs it.
-                b.counted = true;
-                self.restitution_updates = self.restitution_updates.saturating_add(1);
+        if learn.decel {
+            self.decel_updates = self.decel_updates.saturating_add(1);
+        }
+        if is_main {
+            if touching {
+                // A robot may touch it: what follows is a new stretch.
+                self.surface.restart(o.t_s);
+            } else {
+                let var_m2 = 0.5 * r_eff.trace();
+                let s = speed(track.filter.velocity());
+                self.surface.sighting(o.t_s, o.position_m, var_m2, s);
             }
         }
         self.record_hit(i, ri, o);
-        if learn_decel {
-            self.decel_updates = self.decel_updates.saturating_add(1);
-        }
     }
 
     /// `o` (from robot `ri`) supports track `i`.
@@ -652,22 +703,7 @@ impl Tracker {
     fn spawn(&mut self, ri: usize, o: &ObsInput, r_eff: &Matrix2<f64>) {
         self.held += 1;
         let cfg = &self.cfg;
-        let params = match self.main() {
-            Some(m) => ModelPrior {
-                decel: (
-                    m.filter.state()[DECEL],
-                    m.filter.covariance()[(DECEL, DECEL)],
-                ),
-                restitution: (
-                    m.filter.state()[RESTITUTION],
-                    m.filter.covariance()[(RESTITUTION, RESTITUTION)],
-                ),
-            },
-            None => ModelPrior {
-                decel: (cfg.motion.decel_mps2, cfg.decel_sigma_mps2.powi(2)),
-                restitution: (cfg.motion.restitution, cfg.restitution_sigma.powi(2)),
-            },
-        };
+        let params = self.learned_prior();
         let filter = BallFilter::start(
             o.position_m,
             r_eff,
@@ -685,14 +721,13 @@ impl Tracker {
                 robot: ri,
                 camera: o.camera,
             }]),
-            quiet_until_s: o.t_s + cfg.learn_quiet_s,
-            bounce: None,
             recent: VecDeque::new(),
             first: Some((o.position_m, *r_eff)),
             logodds: cfg.views.initial_logodds,
             last_miss: None,
             // A new hypothesis is often a ball just kicked and still sliding.
             boost_until_s: o.t_s + cfg.kick_boost_s,
+            quiet_until_s: o.t_s + cfg.learn_quiet_s,
         };
         self.next_id += 1;
         if self.tracks.len() >= cfg.max_tracks {
@@ -716,27 +751,19 @@ impl Tracker {
     /// Hypothesis `i` becomes the estimate.
     fn take_over(&mut self, i: usize, t_s: f64) {
         let cfg = self.cfg.clone();
-        if let Some(old) = self.main() {
-            // The floor and the walls did not change: keep what was learned about them.
-            let keep = ModelPrior {
-                decel: (
-                    old.filter.state()[DECEL],
-                    old.filter.covariance()[(DECEL, DECEL)],
-                ),
-                restitution: (
-                    old.filter.state()[RESTITUTION],
-                    old.filter.covariance()[(RESTITUTION, RESTITUTION)],
-                ),
-            };
-            let f = &mut self.tracks[i].filter;
-            for (k, (v, var)) in [(DECEL, keep.decel), (RESTITUTION, keep.restitution)] {
-                f.reset_component(k, v, var);
-            }
-        }
+        // The floor and the walls did not change: the new estimate flies with what was
+        // learned about them, and the surface's stretches start over with it.
+        let keep = self.learned_prior();
         let tr = &mut self.tracks[i];
+        if self.main.is_some() {
+            tr.filter.reset_component(DECEL, keep.decel.0, keep.decel.1);
+        }
+        tr.filter
+            .reset_component(RESTITUTION, keep.restitution.0, keep.restitution.1);
         tr.boost_until_s = t_s + cfg.kick_boost_s;
         tr.quiet_until_s = tr.quiet_until_s.max(t_s + cfg.learn_quiet_s);
         self.main = Some(i);
+        self.surface.restart(t_s);
     }
 
     fn prune(&mut self, t_s: f64) {

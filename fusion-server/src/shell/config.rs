@@ -76,6 +76,12 @@ pub struct FusionFile {
     pub decel_sigma_mps2: Option<f64>,
     /// ... and of the starting restitution.
     pub restitution_sigma: Option<f64>,
+    /// Starting deceleration while the ball slides just after a kick...
+    pub slide_decel_mps2: Option<f64>,
+    /// ... until its speed has fallen to this share of the kick's (0 to 1).
+    pub roll_ratio: Option<f64>,
+    /// Starting tangential retention at the walls (0 to 1).
+    pub tangential_retention: Option<f64>,
     /// Learn the deceleration from the ball's rolling; off keeps the starting value.
     pub learn_decel: Option<bool>,
     /// Learn the restitution from wall bounces; off keeps the starting value.
@@ -321,6 +327,17 @@ fn positive(name: &str, v: f64) -> Result<f64, ConfigError> {
     }
 }
 
+/// `Ok(v)` when `v` lies strictly between 0 and 1.
+fn fraction(name: &str, v: f64) -> Result<f64, ConfigError> {
+    if v > 0.0 && v < 1.0 {
+        Ok(v)
+    } else {
+        Err(ConfigError::Invalid(format!(
+            "{name} must lie strictly between 0 and 1, got {v}"
+        )))
+    }
+}
+
 impl FusionFile {
     /// Applies the `[fusion]` table over `fusion`.
     pub fn apply(&self, fusion: &mut FusionConfig) -> Result<(), ConfigError> {
@@ -338,10 +355,19 @@ impl FusionFile {
             tracker.motion.decel_mps2 = positive("fusion.decel_mps2", v)?;
         }
         if let Some(v) = self.decel_sigma_mps2 {
-            tracker.decel_sigma_mps2 = positive("fusion.decel_sigma_mps2", v)?;
+            tracker.surface.decel_sigma_mps2 = positive("fusion.decel_sigma_mps2", v)?;
         }
         if let Some(v) = self.restitution_sigma {
-            tracker.restitution_sigma = positive("fusion.restitution_sigma", v)?;
+            tracker.surface.restitution_sigma = positive("fusion.restitution_sigma", v)?;
+        }
+        if let Some(v) = self.slide_decel_mps2 {
+            tracker.motion.slide_decel_mps2 = positive("fusion.slide_decel_mps2", v)?;
+        }
+        if let Some(v) = self.roll_ratio {
+            tracker.motion.roll_ratio = fraction("fusion.roll_ratio", v)?;
+        }
+        if let Some(v) = self.tangential_retention {
+            tracker.motion.tangential_retention = fraction("fusion.tangential_retention", v)?;
         }
         if let Some(b) = self.learn_decel {
             tracker.learn_decel = b;
@@ -396,8 +422,8 @@ max_mb = 200
         assert_eq!(cfg.engine.fusion.late_window_s, 0.3);
         let tracker = &cfg.engine.fusion.tracker;
         assert_eq!(tracker.motion.decel_mps2, 0.45);
-        assert_eq!(tracker.decel_sigma_mps2, 0.05);
-        assert_eq!(tracker.restitution_sigma, 0.1);
+        assert_eq!(tracker.surface.decel_sigma_mps2, 0.05);
+        assert_eq!(tracker.surface.restitution_sigma, 0.1);
         assert!(!tracker.learn_decel);
         assert!(tracker.learn_restitution);
         assert_eq!(cfg.engine.roster.as_ref().map(|r| r.len()), Some(2));
@@ -493,6 +519,9 @@ max_mb = 200
             "[fusion]\ndecel_mps2 = 0",
             "[fusion]\ndecel_sigma_mps2 = -0.1",
             "[fusion]\nrestitution_sigma = nan",
+            "[fusion]\nslide_decel_mps2 = 0",
+            "[fusion]\nroll_ratio = 1.5",
+            "[fusion]\ntangential_retention = nan",
             "[fusion]\nlate_window_s = inf",
             "[limits]\nmax_observation_bytes = 10",
             "[limits]\nrate_limit_hz = 0",

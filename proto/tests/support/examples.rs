@@ -139,6 +139,8 @@ pub fn ball_state() -> BallState {
         model: ModelParams {
             rolling_decel_mps2: 0.45,
             wall_restitution: 0.55,
+            tangential_retention: 0.9,
+            slide_decel_mps2: 2.8,
             decel_samples: 12,
             restitution_samples: 4,
         },

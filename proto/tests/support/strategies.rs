@@ -164,7 +164,14 @@ prop_compose! {
         decel_samples in any::<u32>(),
         restitution_samples in any::<u32>(),
     ) -> ModelParams {
-        ModelParams { rolling_decel_mps2, wall_restitution, decel_samples, restitution_samples }
+        ModelParams {
+            rolling_decel_mps2,
+            wall_restitution,
+            decel_samples,
+            restitution_samples,
+            tangential_retention: 0.85,
+            slide_decel_mps2: 3.0,
+        }
     }
 }
 

@@ -2,6 +2,7 @@
 
 use crate::estimator::filter::ProcessNoise;
 use crate::estimator::motion::MotionModel;
+use crate::estimator::surface::SurfaceConfig;
 use crate::estimator::views::ViewConfig;
 
 /// Tuning of the tracker. `Default` is what the server runs with.
@@ -56,26 +57,19 @@ pub struct TrackerConfig {
     pub surprises_for_kick: usize,
     /// Two surprising updates whose d² sum to this are already a clear kick.
     pub onset_chi2: f64,
-    /// After a kick or a bounce the ball slides; do not learn the rolling deceleration then.
-    pub learn_quiet_s: f64,
-    /// Do not learn the deceleration below this speed (the stop dominates).
-    pub learn_min_speed_mps: f64,
+    /// Learn the floor's decelerations / the walls' restitution and tangential retention
+    /// from the estimate's stretches and bounces ([`SurfaceConfig`]); off, the base model's
+    /// values are used as they are.
     pub learn_decel: bool,
     pub learn_restitution: bool,
-    /// The restitution is learned only from well-observed bounces: normal speed in at
-    /// least this, known to `bounce_learn_max_rel_sigma` of itself, the ball seen within
-    /// `bounce_learn_seen_s` before the bounce...
-    pub bounce_learn_min_speed_mps: f64,
-    pub bounce_learn_max_rel_sigma: f64,
-    pub bounce_learn_seen_s: f64,
-    /// ... from the observations within this time after it...
-    pub bounce_learn_window_s: f64,
-    /// ... and one bounce moves the restitution by at most this much.
-    pub restitution_max_step: f64,
+    pub surface: SurfaceConfig,
+    /// After a kick or a bounce the ball slides: its filter does not learn the rolling
+    /// deceleration then...
+    pub learn_quiet_s: f64,
+    /// ... nor below this speed (the stop dominates).
+    pub learn_min_speed_mps: f64,
     /// Base motion model; its deceleration and restitution are the starting values.
     pub motion: MotionModel,
-    pub decel_sigma_mps2: f64,
-    pub restitution_sigma: f64,
     pub noise: ProcessNoise,
     /// Extra white-acceleration density per (m/s)² of speed.
     pub accel_speed_gain: f64,
@@ -112,18 +106,12 @@ impl Default for TrackerConfig {
             surprise_chi2: 5.99,
             surprises_for_kick: 3,
             onset_chi2: 24.0,
-            learn_quiet_s: 0.4,
-            learn_min_speed_mps: 0.12,
             learn_decel: true,
             learn_restitution: true,
-            bounce_learn_min_speed_mps: 0.15,
-            bounce_learn_max_rel_sigma: 0.3,
-            bounce_learn_seen_s: 0.25,
-            bounce_learn_window_s: 0.5,
-            restitution_max_step: 0.1,
+            surface: SurfaceConfig::default(),
+            learn_quiet_s: 0.4,
+            learn_min_speed_mps: 0.12,
             motion: MotionModel::default(),
-            decel_sigma_mps2: 0.1,
-            restitution_sigma: 0.15,
             noise: ProcessNoise {
                 accel_m2ps3: 0.0005,
                 rest_pos_m2ps: 2e-5,

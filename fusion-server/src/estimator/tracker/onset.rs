@@ -18,6 +18,7 @@
 
 use super::{Track, Tracker};
 use crate::estimator::filter::{BallFilter, Learn, ProcessNoise};
+use crate::estimator::motion::speed;
 use nalgebra::{Matrix2, Vector2};
 
 /// Sightings a track keeps for change-point search...
@@ -43,6 +44,14 @@ pub(super) struct Recent {
     pub robot: usize,
 }
 
+/// A kick found as a change point: the re-initialised filter, when it came and how fast.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Kick {
+    pub filter: BallFilter,
+    pub t_s: f64,
+    pub speed_mps: f64,
+}
+
 /// A sighting as the onset logic needs it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct OnsetSighting {
@@ -64,30 +73,75 @@ impl Tracker {
     }
 
     /// `before` with its velocity made unknown, fed `sightings` and then flown to `t_s`:
-    /// the filter and the sum of the sightings' d².
+    /// the filter and the sum of the sightings' d². With `roll_from`, the ball slides from
+    /// its first sighting until it is that slow.
     fn refly<'a>(
         &self,
         before: &BallFilter,
         sightings: impl Iterator<Item = &'a Recent>,
         t_s: f64,
+        roll_from: Option<f64>,
     ) -> (BallFilter, f64) {
         let mut f = before.clone();
+        f.slide_until(0.0);
         let vv = self.cfg.spawn_velocity_sigma_mps.powi(2);
         for k in 2..4 {
             let v = f.state()[k];
             f.reset_component(k, v, vv);
         }
         let noise = self.kick_noise();
+        let motion = self.motion();
         let mut cost = 0.0;
-        for s in sightings {
-            f.predict_to(s.t_s, &self.cfg.motion, &self.bounds, &noise);
+        for (n, s) in sightings.enumerate() {
+            f.predict_to(s.t_s, &motion, &self.bounds, &noise);
             // A sighting the filter cannot take makes this flight impossible.
             cost += f
                 .update(s.z, &s.r, Learn::default())
                 .map_or(f64::INFINITY, |inn| inn.d2);
+            if let (0, Some(r)) = (n, roll_from) {
+                f.slide_until(r);
+            }
         }
-        f.predict_to(t_s, &self.cfg.motion, &self.bounds, &noise);
+        f.predict_to(t_s, &motion, &self.bounds, &noise);
         (f, cost)
+    }
+
+    /// `before` kicked at sighting `j` of `track`, flown to `t_s`: rolling, then (when the
+    /// floor makes a ball slide first) again sliding from a kick as fast as the rolling
+    /// flight says; whichever fits the sightings better. The filter, its cost, the kick's
+    /// time and speed.
+    fn kicked_flight(&self, track: &Track, j: usize, t_s: f64) -> (BallFilter, f64, (f64, f64)) {
+        let recent = &track.recent;
+        // The kick came between the sighting before and this one.
+        let kick_t_s = match j.checked_sub(1) {
+            Some(k) => 0.5 * (recent[k].t_s + recent[j].t_s),
+            None => recent[j].t_s,
+        };
+        let (rolled, cost) = self.refly(&recent[j].before, recent.iter().skip(j), t_s, None);
+        let m = self.motion();
+        let since_s = (t_s - kick_t_s).max(0.0);
+        let kick_speed = speed(rolled.velocity()) + m.slide_decel_mps2 * since_s;
+        if m.slide_decel_mps2 <= m.decel_mps2 {
+            return (rolled, cost, (kick_t_s, kick_speed));
+        }
+        let roll_from = m.roll_ratio * kick_speed;
+        let (slid, slid_cost) = self.refly(
+            &recent[j].before,
+            recent.iter().skip(j),
+            t_s,
+            Some(roll_from),
+        );
+        if slid_cost > cost {
+            // The sightings say it rolls (a soft kick, a floor with no slide to speak of).
+            return (rolled, cost, (kick_t_s, kick_speed));
+        }
+        let cost = slid_cost;
+        let kick_speed = if slid.sliding() {
+            speed(slid.velocity()) + m.slide_decel_mps2 * since_s
+        } else {
+            kick_speed
+        };
+        (slid, cost, (kick_t_s, kick_speed))
     }
 
     /// Whether the trailing run of surprising sightings of `track`, with `now` (d² `d2`)
@@ -120,9 +174,10 @@ impl Tracker {
         if !watched || !all_credible {
             return None;
         }
+        let motion = self.motion();
         let residual = |t_s: f64, z: [f64; 2]| {
             let mut f = first.before.clone();
-            f.predict_to(t_s, &cfg.motion, &self.bounds, &self.kick_noise());
+            f.predict_to(t_s, &motion, &self.bounds, &self.kick_noise());
             Vector2::new(z[0] - f.state()[0], z[1] - f.state()[1])
         };
         let y_first = Vector2::new(
@@ -148,25 +203,30 @@ impl Tracker {
     }
 
     /// The kicked filter of `track` at `now`, its start chosen among the sightings up to
-    /// [`ONSET_LOOKBACK`] before the run's first: the filter (without `now` applied) and
-    /// the d² of `now` against it.
+    /// [`ONSET_LOOKBACK`] before the run's first: the kick (its filter without `now` applied)
+    /// and the d² of `now` against it.
     fn kicked_filter(
         &self,
         track: &Track,
         run_start: usize,
         now: &OnsetSighting,
-    ) -> Option<(BallFilter, f64)> {
+    ) -> Option<(Kick, f64)> {
         let recent = &track.recent;
         let lo = run_start.saturating_sub(ONSET_LOOKBACK);
         (lo..=run_start.min(recent.len().saturating_sub(1)))
             .map(|j| {
                 let kept: f64 = recent.iter().take(j).skip(lo).map(|s| s.d2).sum();
-                let (f, cost) = self.refly(&recent[j].before, recent.iter().skip(j), now.t_s);
-                let d2_now = f.innovation(now.z, &now.r).d2;
-                (f, d2_now, kept + cost + d2_now)
+                let (filter, cost, (t_s, speed_mps)) = self.kicked_flight(track, j, now.t_s);
+                let d2_now = filter.innovation(now.z, &now.r).d2;
+                let kick = Kick {
+                    filter,
+                    t_s,
+                    speed_mps,
+                };
+                (kick, d2_now, kept + cost + d2_now)
             })
             .min_by(|a, b| a.2.total_cmp(&b.2))
-            .map(|(f, d2_now, _)| (f, d2_now))
+            .map(|(k, d2_now, _)| (k, d2_now))
     }
 
     /// Keeps a sighting of track `i`, before its filter is updated by it.
@@ -193,12 +253,7 @@ impl Tracker {
 
     /// For a sighting that track `i` accepted with d² `d2` (before the update): the
     /// re-initialised filter when it makes a kick clear.
-    pub(super) fn note_onset(
-        &mut self,
-        i: usize,
-        d2: f64,
-        s: &OnsetSighting,
-    ) -> Option<BallFilter> {
+    pub(super) fn note_onset(&mut self, i: usize, d2: f64, s: &OnsetSighting) -> Option<Kick> {
         let track = &self.tracks[i];
         let start = self.onset_run(track, s, d2)?;
         let (f, _) = self.kicked_filter(track, start, s)?;
@@ -210,7 +265,7 @@ impl Tracker {
     /// run of surprising sightings ending in this one makes the kick clear and the kicked
     /// filter accepts it. A sighting near the main track that is not (yet) a kick is kept,
     /// so that the next one may confirm it.
-    pub(super) fn kick_candidate(&mut self, s: &OnsetSighting) -> Option<(usize, BallFilter)> {
+    pub(super) fn kick_candidate(&mut self, s: &OnsetSighting) -> Option<(usize, Kick)> {
         let m = self.main?;
         let track = &self.tracks[m];
         let inn = track.filter.innovation(s.z, &s.r);

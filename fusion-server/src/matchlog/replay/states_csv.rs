@@ -131,6 +131,8 @@ mod tests {
                 wall_restitution: 0.6,
                 decel_samples: 3,
                 restitution_samples: 1,
+                tangential_retention: 0.85,
+                slide_decel_mps2: 3.0,
             },
             prediction: Prediction {
                 version: proto::VERSION,

@@ -39,6 +39,8 @@ pub fn summary_json(r: &ReplayReport, wall_s: f64, out: &ReplayOutputs) -> serde
             "wall_restitution": m.wall_restitution,
             "decel_samples": m.decel_samples,
             "restitution_samples": m.restitution_samples,
+            "tangential_retention": m.tangential_retention,
+            "slide_decel_mps2": m.slide_decel_mps2,
         })),
         "span_s": r.span_s,
         "wall_s": wall_s,
@@ -106,8 +108,14 @@ pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
     }
     if let Some(m) = &r.model {
         line(format!(
-            "model at the end    deceleration {:.3} m/s² ({} samples), restitution {:.2} ({} bounces)",
-            m.rolling_decel_mps2, m.decel_samples, m.wall_restitution, m.restitution_samples
+            "model at the end    deceleration {:.3} m/s² ({} samples), restitution {:.2} and \
+             tangential retention {:.2} ({} bounces), slide {:.2} m/s²",
+            m.rolling_decel_mps2,
+            m.decel_samples,
+            m.wall_restitution,
+            m.tangential_retention,
+            m.restitution_samples,
+            m.slide_decel_mps2
         ));
     }
     line(format!(
