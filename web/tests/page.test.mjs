@@ -111,7 +111,7 @@ async function liveChecks(browser) {
       getJson(url, "/api/state"),
     ]);
     const same = JSON.stringify(reasons.sort()) === JSON.stringify(Object.keys(apiNow.rejected).sort());
-    return rows.length === ROBOTS && rows.every((r) => r.length === 7 && /ms$/.test(r[4]) && /^[+-]\d+ ms$/.test(r[6])) && same;
+    return rows.length === ROBOTS && rows.every((r) => r.length === 7 && /ms$/.test(r[4]) && /^[+-]\d+ ms( ✓)?$/.test(r[6])) && same;
   }, 5000)
     .then(() => check(true, "panel: every robot with rate, trust, latency, outliers and clock offset; the rejections by reason as the server counts them"))
     .catch(() => fail("the panel's robot table or rejection list does not match the server"));
