@@ -8,7 +8,7 @@
 //! The two model parameters are states, learned from the data where they are observable
 //! and frozen (Schmidt "consider" states) where the data would mislead them.
 
-use super::motion::{Bounds, Flight, MotionModel, Piece, fly};
+use super::motion::{Bounds, Flight, MotionModel, Piece, fly, speed};
 use nalgebra::{Cholesky, Const, Matrix2, SMatrix, SVector, Vector2};
 
 pub type State = SVector<f64, 6>;
@@ -84,8 +84,10 @@ pub struct BallFilter {
     p: Cov,
     /// Filter time in seconds since the fusion epoch.
     t_s: f64,
-    /// The ball slides while faster than this ([`MotionModel::roll_from_mps`]).
+    /// The ball slides while faster than this ([`MotionModel::roll_from_mps`])...
     roll_from_mps: f64,
+    /// ... since the kick at this time.
+    kick_t_s: Option<f64>,
 }
 
 impl BallFilter {
@@ -114,6 +116,7 @@ impl BallFilter {
             p,
             t_s,
             roll_from_mps: 0.0,
+            kick_t_s: None,
         }
     }
 
@@ -172,13 +175,31 @@ impl BallFilter {
         self.p[(k, k)] = variance;
     }
 
-    /// The ball slides (it was just kicked) until its speed falls to `roll_from_mps`.
-    pub fn slide_until(&mut self, roll_from_mps: f64) {
-        self.roll_from_mps = if roll_from_mps.is_finite() {
-            roll_from_mps.max(0.0)
+    /// The ball was kicked at `kick_t_s` and slides, by `model`, until its speed falls to
+    /// `model.roll_ratio` of the kick's: its speed now plus what the slide took since. Called
+    /// again after each update while it slides, so that the kick's speed is read from all
+    /// the sightings since; a ball already that slow rolls.
+    pub fn slide_since(&mut self, kick_t_s: f64, model: &MotionModel) {
+        let s = speed(self.velocity());
+        let a = model.slide_decel_mps2;
+        let roll_from = model.roll_ratio * (s + a.max(0.0) * (self.t_s - kick_t_s).max(0.0));
+        if a > model.decel_mps2 && roll_from.is_finite() && s > roll_from {
+            self.roll_from_mps = roll_from;
+            self.kick_t_s = Some(kick_t_s);
         } else {
-            0.0
-        };
+            self.roll();
+        }
+    }
+
+    /// The ball rolls (no slide phase).
+    pub fn roll(&mut self) {
+        self.roll_from_mps = 0.0;
+        self.kick_t_s = None;
+    }
+
+    /// When the ball that still slides was kicked.
+    pub fn kick_time_s(&self) -> Option<f64> {
+        self.kick_t_s.filter(|_| self.roll_from_mps > 0.0)
     }
 
     /// Whether the ball still slides after a kick.
@@ -230,6 +251,9 @@ impl BallFilter {
         self.p = p;
         self.t_s = t_s;
         self.roll_from_mps = flight.roll_from_mps;
+        if self.roll_from_mps == 0.0 {
+            self.kick_t_s = None;
+        }
         Some(flight)
     }
 

@@ -495,8 +495,10 @@ pub struct Surface {
     /// The last bounce taken: time, axis, wall.
     last_bounce: Option<(f64, usize, f64)>,
     refused: u32,
-    /// Bumped whenever a learned value changes.
+    /// Bumped whenever a learned value changes...
     version: u64,
+    /// ... and whenever the restitution does.
+    walls_version: u64,
 }
 
 /// At most this many sightings wait for the fits (a flood commits them early).
@@ -550,6 +552,7 @@ impl Surface {
             last_bounce: None,
             refused: 0,
             version: 0,
+            walls_version: 0,
         }
     }
 
@@ -598,6 +601,11 @@ impl Surface {
     /// Changes whenever a learned value does.
     pub fn version(&self) -> u64 {
         self.version
+    }
+
+    /// Changes whenever the learned restitution does.
+    pub fn walls_version(&self) -> u64 {
+        self.walls_version
     }
 
     /// A sighting of the main track at `t_s` (positions `z`, variance per axis `var_m2`),
@@ -870,6 +878,7 @@ impl Surface {
         }
         if self.restitution.add(normal.0, normal.1, &c) {
             self.version += 1;
+            self.walls_version += 1;
         }
         if let Some((x, var)) = tangential
             && self.tangential.add(x, var, &c)

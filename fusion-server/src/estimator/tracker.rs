@@ -296,12 +296,12 @@ impl Tracker {
         }
     }
 
-    /// Sets every hypothesis' model states to the learned values when they changed.
+    /// Sets every hypothesis' restitution state to the learned value when it changed.
     fn sync_surface(&mut self) {
-        if self.surface.version() == self.surface_synced {
+        if self.surface.walls_version() == self.surface_synced {
             return;
         }
-        self.surface_synced = self.surface.version();
+        self.surface_synced = self.surface.walls_version();
         let prior = self.learned_prior();
         for tr in &mut self.tracks {
             tr.filter
@@ -661,6 +661,11 @@ impl Tracker {
         }
         if learn.decel {
             self.decel_updates = self.decel_updates.saturating_add(1);
+        }
+        if let Some(kick_t_s) = track.filter.kick_time_s() {
+            // Still sliding: the kick's speed, read again with this sighting.
+            let motion = self.surface.model(&self.cfg.motion);
+            track.filter.slide_since(kick_t_s, &motion);
         }
         if is_main {
             if touching {

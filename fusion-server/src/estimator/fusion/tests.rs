@@ -570,3 +570,65 @@ fn bad_footprints_are_refused_counted_and_change_nothing() {
     assert_eq!(f.counters().footprints_rejected, 2);
     assert_eq!(f.counters().footprints_accepted, 0);
 }
+
+/// A ball at rest, kicked along +x at 2.5 m/s by nobody who reports it: it slides at
+/// 3 m/s² down to 0.64 of that, then rolls at 0.3 m/s². Seen by two robots at 100 Hz with
+/// 1 cm noise up to `until_s`; returns the along-track error of the path predicted 0.8 s
+/// ahead from there, and whether the estimate then slides.
+fn predict_after_a_sliding_kick(cfg: FusionConfig, until_s: f64) -> (f64, bool) {
+    let truth = |t: f64| {
+        let (t0, v0, a_s, a_r) = (1.0, 2.5, 3.0, 0.3);
+        let t_slide = (1.0 - 0.64) * v0 / a_s;
+        let dt = (t - t0).max(0.0);
+        let x = if dt <= t_slide {
+            v0 * dt - 0.5 * a_s * dt * dt
+        } else {
+            let v1 = 0.64 * v0;
+            let r = dt - t_slide;
+            v0 * t_slide - 0.5 * a_s * t_slide * t_slide + v1 * r - 0.5 * a_r * r * r
+        };
+        [-1.0 + x, 0.3]
+    };
+    let mut f = Fusion::new(cfg);
+    let mut rng = Lcg(17);
+    let mut last = Stamp(T0);
+    for k in 0..((until_s * 100.0) as u64) {
+        for (r, robot) in ["a", "b"].iter().enumerate() {
+            let t = k as f64 / 100.0 + 0.005 * r as f64;
+            let p = truth(t);
+            let z = [p[0] + 0.01 * rng.normal(), p[1] + 0.01 * rng.normal()];
+            let o = obs(robot, k, t, z, 0.01);
+            last = o.stamp;
+            ingest(&mut f, &o);
+        }
+    }
+    let st = f.ball_state(last).expect("a state");
+    let ahead = st
+        .prediction
+        .samples
+        .iter()
+        .min_by(|a, b| (a.t_s - 0.8).abs().total_cmp(&(b.t_s - 0.8).abs()))
+        .expect("samples");
+    let t_now = (last.0 - T0) as f64 * 1e-9;
+    let want = truth(t_now + ahead.t_s);
+    let err = (ahead.position_m[0] - want[0]).abs();
+    let sliding = f.tracker().main().is_some_and(|m| m.filter.sliding());
+    (err, sliding)
+}
+
+#[test]
+fn a_kicked_ball_is_predicted_to_slide_then_roll() {
+    let (err, sliding) = predict_after_a_sliding_kick(FusionConfig::default(), 1.1);
+    assert!(sliding, "the kicked estimate slides");
+    // Without a slide phase the same kick is predicted to run on much farther.
+    let mut no_slide = FusionConfig::default();
+    no_slide.tracker.motion.slide_decel_mps2 = no_slide.tracker.motion.decel_mps2;
+    no_slide.tracker.learn_decel = false;
+    let (err_roll, sliding_roll) = predict_after_a_sliding_kick(no_slide, 1.1);
+    assert!(!sliding_roll);
+    assert!(err < 0.08, "0.8 s ahead: {err} m off");
+    assert!(
+        err < 0.5 * err_roll,
+        "{err} m sliding, {err_roll} m rolling"
+    );
+}

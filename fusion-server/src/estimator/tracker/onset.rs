@@ -31,6 +31,11 @@ const ONSET_LOOKBACK: usize = 4;
 /// one: a track nobody has seen for a while is found again by a new hypothesis, not kicked.
 const ONSET_WATCHED_S: f64 = 0.15;
 
+/// A kicked ball is flown sliding only when at least this many sightings since the kick tell
+/// its speed: from fewer (a slow robot), the kick's speed is too uncertain to say where the
+/// slide ends, and a wrong end costs more than a roll.
+const MIN_SLIDE_SIGHTINGS: usize = 3;
+
 /// One sighting of a track and the filter as it was just before it.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Recent {
@@ -72,18 +77,16 @@ impl Tracker {
         noise
     }
 
-    /// `before` with its velocity made unknown, fed `sightings` and then flown to `t_s`:
-    /// the filter and the sum of the sightings' d². With `roll_from`, the ball slides from
-    /// its first sighting until it is that slow.
+    /// `before` with its velocity made unknown (and rolling), fed `sightings` and then flown
+    /// to `t_s`: the filter and the sum of the sightings' d².
     fn refly<'a>(
         &self,
         before: &BallFilter,
         sightings: impl Iterator<Item = &'a Recent>,
         t_s: f64,
-        roll_from: Option<f64>,
     ) -> (BallFilter, f64) {
         let mut f = before.clone();
-        f.slide_until(0.0);
+        f.roll();
         let vv = self.cfg.spawn_velocity_sigma_mps.powi(2);
         for k in 2..4 {
             let v = f.state()[k];
@@ -92,24 +95,23 @@ impl Tracker {
         let noise = self.kick_noise();
         let motion = self.motion();
         let mut cost = 0.0;
-        for (n, s) in sightings.enumerate() {
+        for s in sightings {
             f.predict_to(s.t_s, &motion, &self.bounds, &noise);
             // A sighting the filter cannot take makes this flight impossible.
             cost += f
                 .update(s.z, &s.r, Learn::default())
                 .map_or(f64::INFINITY, |inn| inn.d2);
-            if let (0, Some(r)) = (n, roll_from) {
-                f.slide_until(r);
-            }
         }
         f.predict_to(t_s, &motion, &self.bounds, &noise);
         (f, cost)
     }
 
-    /// `before` kicked at sighting `j` of `track`, flown to `t_s`: rolling, then (when the
-    /// floor makes a ball slide first) again sliding from a kick as fast as the rolling
-    /// flight says; whichever fits the sightings better. The filter, its cost, the kick's
-    /// time and speed.
+    /// `before` kicked at sighting `j` of `track`, flown to `t_s`; when the floor makes a
+    /// kicked ball slide first and enough sightings tell how fast it goes, it slides on from
+    /// there until it is `roll_ratio` as fast as the kick (its speed now plus what the slide
+    /// took since the kick). The few sightings since the kick are flown rolling: over so
+    /// short a time the two phases differ by less than the noise. The filter, its cost, the
+    /// kick's time and speed.
     fn kicked_flight(&self, track: &Track, j: usize, t_s: f64) -> (BallFilter, f64, (f64, f64)) {
         let recent = &track.recent;
         // The kick came between the sighting before and this one.
@@ -117,31 +119,13 @@ impl Tracker {
             Some(k) => 0.5 * (recent[k].t_s + recent[j].t_s),
             None => recent[j].t_s,
         };
-        let (rolled, cost) = self.refly(&recent[j].before, recent.iter().skip(j), t_s, None);
+        let (mut f, cost) = self.refly(&recent[j].before, recent.iter().skip(j), t_s);
         let m = self.motion();
-        let since_s = (t_s - kick_t_s).max(0.0);
-        let kick_speed = speed(rolled.velocity()) + m.slide_decel_mps2 * since_s;
-        if m.slide_decel_mps2 <= m.decel_mps2 {
-            return (rolled, cost, (kick_t_s, kick_speed));
+        let kick_speed = speed(f.velocity()) + m.slide_decel_mps2 * (t_s - kick_t_s).max(0.0);
+        if recent.len() - j >= MIN_SLIDE_SIGHTINGS {
+            f.slide_since(kick_t_s, &m);
         }
-        let roll_from = m.roll_ratio * kick_speed;
-        let (slid, slid_cost) = self.refly(
-            &recent[j].before,
-            recent.iter().skip(j),
-            t_s,
-            Some(roll_from),
-        );
-        if slid_cost > cost {
-            // The sightings say it rolls (a soft kick, a floor with no slide to speak of).
-            return (rolled, cost, (kick_t_s, kick_speed));
-        }
-        let cost = slid_cost;
-        let kick_speed = if slid.sliding() {
-            speed(slid.velocity()) + m.slide_decel_mps2 * since_s
-        } else {
-            kick_speed
-        };
-        (slid, cost, (kick_t_s, kick_speed))
+        (f, cost, (kick_t_s, kick_speed))
     }
 
     /// Whether the trailing run of surprising sightings of `track`, with `now` (d² `d2`)
