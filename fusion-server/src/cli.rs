@@ -1,15 +1,18 @@
 //! Command-line interface: subcommands and the flags they share.
 
-use anyhow::Result;
-use clap::{Args, Parser, Subcommand};
-use fusion_server::matchlog::replay::TimeArg;
-use fusion_server::shell::args::{
+use crate::matchlog::replay::TimeArg;
+use crate::shell::args::{
     ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
 };
-use fusion_server::shell::live::SystemClock;
-use fusion_server::shell::serve;
+use crate::shell::live::SystemClock;
+use crate::shell::serve;
+use anyhow::Result;
+use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 use std::sync::Arc;
+
+mod keys;
+mod replay;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -30,7 +33,7 @@ pub enum Command {
     Replay(ReplayArgs),
     /// Make the certificates of a secured network: its authority, one folder per robot,
     /// server and router, and the routers' zenohd configurations.
-    Keys(crate::keys_cmd::KeysArgs),
+    Keys(keys::KeysArgs),
 }
 
 #[derive(Debug, Clone, Args)]
@@ -98,12 +101,28 @@ async fn serve_cmd(a: ServeArgs) -> Result<()> {
     served
 }
 
-pub async fn run(cli: Cli) -> Result<()> {
+/// The `fusion-server` command line: parses the arguments, sets up logging (`RUST_LOG`,
+/// Zenoh's own chatter held to errors) and runs the subcommand.
+pub fn main() -> Result<()> {
+    let args = Cli::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
+    rt.block_on(run(args))
+}
+
+async fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Serve(a) => serve_cmd(a).await,
-        Command::Replay(a) if a.realtime => crate::replay_cmd::realtime(a).await,
-        Command::Replay(a) => crate::replay_cmd::offline(a),
-        Command::Keys(a) => crate::keys_cmd::run(a),
+        Command::Replay(a) if a.realtime => replay::realtime(a).await,
+        Command::Replay(a) => replay::offline(a),
+        Command::Keys(a) => keys::run(a),
     }
 }
 

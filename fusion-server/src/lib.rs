@@ -11,7 +11,10 @@
 //! Zenoh network.
 //!
 //! **The shell** ([`shell`]): Zenoh, HTTP, the live stream, metrics and settings.
+//!
+//! **The command line** ([`cli`]): `serve`, `replay` and `keys`, as the binary runs them.
 
+pub mod cli;
 pub mod engine;
 pub mod estimator;
 pub mod matchlog;

@@ -1,22 +1,6 @@
-//! `fusion-server`: the team ball server, and replay of match logs.
+//! `fusion-server`: the team ball server, replay of match logs, and the keys of a secured
+//! network. The command line lives in the library ([`fusion_server::cli`]).
 
-mod cli;
-mod keys_cmd;
-mod replay_cmd;
-
-use anyhow::Result;
-use clap::Parser;
-
-fn main() -> Result<()> {
-    let args = cli::Cli::parse();
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()?;
-    rt.block_on(cli::run(args))
+fn main() -> anyhow::Result<()> {
+    fusion_server::cli::main()
 }

@@ -1,6 +1,7 @@
-//! Flag groups and command steps shared by the `robot-agent` binary and the harness's
-//! simulator-driven commands (`sim_calibrate`, `train_sim`), so both write the same files
-//! from the same inputs.
+//! The `robot-agent` command line ([`main`]: `run`, `calibrate`, `calibrate-colour`, `train`,
+//! `detect`, `evaluate`), and the flag groups and command steps it shares with the
+//! simulator-driven tools (`sim_calibrate`, `train_sim`), so both write the same files from
+//! the same inputs.
 //!
 //! - [`calibrate`]: the board and lens flags, the fit from chessboard images, its report.
 //! - [`train`]: patches from folders and labelled photos, the classifier's fit and file.
@@ -18,3 +19,64 @@ pub mod labelled_patches;
 pub mod net_train;
 pub mod progress;
 pub mod train;
+
+mod bar_chart;
+mod calibrate_cmd;
+mod calibrate_colour_cmd;
+mod camera_args;
+mod detect_cmd;
+mod evaluate_cmd;
+mod pr_chart;
+mod run_cmd;
+mod train_cmd;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+#[derive(Debug, Parser)]
+#[command(name = "robot-agent", version, about = "A MiRo's ball perception")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Finds the ball in camera frames and publishes it over Zenoh.
+    Run(Box<run_cmd::RunCmdArgs>),
+    /// Fits a camera model to chessboard images.
+    Calibrate(calibrate_cmd::CalibrateArgs),
+    /// Fits the colour detector's window to the balls of labelled photos.
+    CalibrateColour(calibrate_colour_cmd::CalibrateColourArgs),
+    /// Trains the ball network (default) or the HOG + SVM filter.
+    Train(train_cmd::TrainArgs),
+    /// Finds the ball in a folder of photos (no index, no pose): every candidate, as JSON lines.
+    Detect(detect_cmd::DetectArgs),
+    /// Scores the detector on photos with labelled ball boxes (Pascal VOC or YOLO).
+    Evaluate(Box<evaluate_cmd::EvaluateArgs>),
+}
+
+/// The `robot-agent` command line: parses the arguments, sets up logging (`RUST_LOG`,
+/// Zenoh's own chatter held to errors) and runs the subcommand.
+pub fn main() -> Result<()> {
+    let cli = Cli::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+    match cli.command {
+        Command::Run(args) => {
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .enable_all()
+                .build()?;
+            rt.block_on(run_cmd::run(*args))
+        }
+        Command::Calibrate(args) => calibrate_cmd::run(args),
+        Command::CalibrateColour(args) => calibrate_colour_cmd::run(args),
+        Command::Train(args) => train_cmd::run(args),
+        Command::Detect(args) => detect_cmd::run(args),
+        Command::Evaluate(args) => evaluate_cmd::run(*args),
+    }
+}

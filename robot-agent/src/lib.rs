@@ -22,7 +22,7 @@
 //! - [`runtime`]: frame sources (image folders, MCAP recordings, live ROS over Zenoh) and
 //!   the perceive loop that publishes observations and status.
 //! - [`cli`]: flag groups and command steps shared by the `robot-agent` binary and the
-//!   harness's simulator-driven commands.
+//!   simulator-driven tools.
 
 pub mod agent;
 pub mod builtin;

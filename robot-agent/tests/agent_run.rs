@@ -1,6 +1,6 @@
 //! The `robot-agent` binary as a process: bad sources and files give clear errors,
 //! `calibrate` on chessboard photographs and `train` on patch folders. (The agent on the
-//! simulator's cameras, recorded and played back, and live over Zenoh, is the harness's
+//! simulator's cameras, recorded and played back, and live over Zenoh, is the system tests'
 //! `sim_agent` and its tests.)
 
 #![allow(clippy::unwrap_used)]
@@ -43,7 +43,7 @@ fn bad_sources_and_files_give_clear_errors() {
         ])
         .contains("cal.toml")
     );
-    // The simulator's cameras are the harness's (`sim_agent`), not a source of the product.
+    // The simulator's cameras are the tools' (`sim_agent`), not a source of the product.
     assert!(run(&["--source", "sim"]).contains("is not images:DIR"));
 }
 

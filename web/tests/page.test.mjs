@@ -14,7 +14,7 @@ import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { chromium } from "playwright-core";
 import {
-  bin, browserArgs, harnessBin, browserPath, check, fail, failed, freePort, getJson, killAll, lineOf, sleep, start, stop, until,
+  bin, browserArgs, toolBin, browserPath, check, fail, failed, freePort, getJson, killAll, lineOf, sleep, start, stop, until,
 } from "./support.mjs";
 import { replayChecks } from "./replay.check.mjs";
 
@@ -56,8 +56,8 @@ async function liveChecks(browser) {
   const robotArgs = (only) => ["--connect", `tcp/127.0.0.1:${zenohPort}`, "--scenario", "match",
     "--seed", "2", "--team-size", String(ROBOTS), "--duration-s", "240", "--start-ns", startNs, "--only", only];
   const others = Array.from({ length: ROBOTS - 1 }, (_, i) => `miro${i + 1}`).join(",");
-  const team = start(robotArgs(others), "robots", harnessBin("sim_robots"));
-  const victim = start(robotArgs(VICTIM), VICTIM, harnessBin("sim_robots"));
+  const team = start(robotArgs(others), "robots", toolBin("sim_robots"));
+  const victim = start(robotArgs(VICTIM), VICTIM, toolBin("sim_robots"));
 
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   const errors = [];

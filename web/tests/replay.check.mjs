@@ -3,14 +3,14 @@
 // work, and the server's /api/replay agrees.
 
 import { execFileSync } from "node:child_process";
-import { check, harnessBin, fail, freePort, getJson, lineOf, sleep, start, stop, until } from "./support.mjs";
+import { check, toolBin, fail, freePort, getJson, lineOf, sleep, start, stop, until } from "./support.mjs";
 
 const MATCH_S = 40;
 
 const tb = (page) => page.evaluate(() => window.__teamBall);
 
 export async function replayChecks(browser, workDir, shots) {
-  const out = execFileSync(harnessBin("simulate"), ["--scenario", "match", "--seed", "4", "--duration-s", String(MATCH_S),
+  const out = execFileSync(toolBin("simulate"), ["--scenario", "match", "--seed", "4", "--duration-s", String(MATCH_S),
     "--team-size", "5", "--out", workDir], { encoding: "utf8", timeout: 120_000 });
   const file = out.trim().split("\n").find((l) => l.endsWith(".mcap"));
   if (!file) throw new Error(`simulate wrote no log: ${out}`);

@@ -5,8 +5,8 @@ import { createServer } from "node:net";
 import { dirname, join } from "node:path";
 
 export const bin = process.env.FUSION_SERVER ?? "target/debug/fusion-server";
-/// A harness program (`sim_robots`, `simulate`), built beside the server by `cargo test --workspace`.
-export const harnessBin = (name) => join(process.env.HARNESS_BIN_DIR ?? dirname(bin), name);
+/// A program of `tools` (`sim_robots`, `simulate`), built beside the server by `cargo test --workspace`.
+export const toolBin = (name) => join(process.env.TOOLS_BIN_DIR ?? dirname(bin), name);
 export const browserPath = process.env.CHROMIUM ?? "/usr/bin/chromium";
 export const browserArgs = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
   "--disable-background-networking", "--disable-component-update", "--disable-sync"];

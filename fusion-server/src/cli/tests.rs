@@ -48,10 +48,7 @@ fn pitch_flags_override_the_file_which_overrides_the_defaults() -> Result<()> {
     assert_eq!(cfg.engine.fusion.tracker.motion.restitution, 0.4);
     assert_eq!(cfg.engine.fusion.pitch.length_m, 5.0);
     let (cfg, _) = serve_config(&serve_args(&["serve"]))?;
-    assert_eq!(
-        cfg.engine.fusion,
-        fusion_server::estimator::FusionConfig::default()
-    );
+    assert_eq!(cfg.engine.fusion, crate::estimator::FusionConfig::default());
     Ok(())
 }
 

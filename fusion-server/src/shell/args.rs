@@ -1,6 +1,6 @@
 //! The serving commands' flags and the little each command needs around the server: the
 //! settings they resolve to, the match log, Ctrl-C, the HTTP listener. Any program that
-//! runs a server (this crate's binary, the harness's demo) flattens [`ServeArgs`] into its
+//! runs a server (this crate's binary, the tools' demo) flattens [`ServeArgs`] into its
 //! own command line.
 
 use crate::matchlog::McapLog;

@@ -431,18 +431,31 @@ max_mb = 200
         Ok(())
     }
 
-    /// Every TOML example in the operations guide parses and applies.
+    /// Every TOML example in the operations guide and the reference parses and applies.
     #[test]
     fn the_operations_guide_examples_apply() -> Result<(), ConfigError> {
-        let guide = include_str!("../../../docs/operations.md");
-        let blocks: Vec<&str> = guide
-            .split("```toml\n")
-            .skip(1)
-            .filter_map(|b| b.split("```").next())
+        let docs = [
+            (
+                "docs/operations.md",
+                include_str!("../../../docs/operations.md"),
+            ),
+            (
+                "docs/reference.md",
+                include_str!("../../../docs/reference.md"),
+            ),
+        ];
+        let blocks: Vec<(&str, &str)> = docs
+            .iter()
+            .flat_map(|&(path, doc)| {
+                doc.split("```toml\n")
+                    .skip(1)
+                    .filter_map(|b| b.split("```").next())
+                    .map(move |b| (path, b))
+            })
             .collect();
-        assert!(blocks.len() >= 2, "the guide has its examples");
-        for b in blocks {
-            let f = Settings::parse(b, Path::new("docs/operations.md"))?;
+        assert!(blocks.len() >= 2, "the docs have their examples");
+        for (path, b) in blocks {
+            let f = Settings::parse(b, Path::new(path))?;
             f.apply(&mut ServeConfig::default())?;
         }
         Ok(())

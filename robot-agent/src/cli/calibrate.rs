@@ -1,5 +1,5 @@
 //! Calibrating a camera from chessboard images, shared by `robot-agent calibrate` (a folder
-//! of photographs) and the harness's `sim_calibrate` (views rendered through the
+//! of photographs) and the tools' `sim_calibrate` (views rendered through the
 //! simulator's camera): the board and lens flags, the fit, its report and the TOML file.
 
 use crate::calibration::calibrate::{Board, Calibration, LensModel, calibrate_with, detect_views};

@@ -1,5 +1,5 @@
 //! Training the ball classifier, shared by `robot-agent train` (patch folders, labelled
-//! photos) and the harness's `train_sim` (candidates mined from simulated matches, beside
+//! photos) and the tools' `train_sim` (candidates mined from simulated matches, beside
 //! labelled photos): patches from folders and labelled photos, the fit, its report and the
 //! model file.
 

@@ -1,7 +1,7 @@
 //! A small encoder of the ROS messages `ros_msg` decodes, written apart from the decoder
 //! (from the ROS 1 and CDR rules, not from its code) so that round trips test both. Used
 //! by the library's tests, the runtime's recording tests and (with the `test-support`
-//! feature) the harness's; it depends on nothing in the crate.
+//! feature) the system tests' and the tools'; it depends on nothing in the crate.
 
 #![allow(dead_code)]
 

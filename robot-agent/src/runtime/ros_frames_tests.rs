@@ -1,7 +1,7 @@
 //! ROS recordings written with the `mcap` writer and read back through `--source mcap:`:
 //! both encodings, frame order and stamps, the joints and pose attached, the defaults
 //! without them, and a corrupt message reported and passed over. (The ball found on a
-//! rendered frame that went through a ROS 2 recording is the harness's test.)
+//! rendered frame that went through a ROS 2 recording is a system test's.)
 
 #![allow(clippy::unwrap_used)]
 

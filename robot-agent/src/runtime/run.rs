@@ -16,7 +16,7 @@ use std::sync::{Arc, Mutex};
 use tokio::sync::mpsc;
 
 /// The flags of a run, whatever the source (the `--source` flag is the caller's: the
-/// product's names a file or live source, a harness brings its own).
+/// product's names a file or live source, a tool brings its own).
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
     #[command(flatten)]

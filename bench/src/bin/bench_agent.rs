@@ -1,0 +1,209 @@
+//! `bench_agent`: the robot agent's perception pipeline's time per frame on one core, by
+//! stage, on frames rendered from simulated matches; and the renderer's own speed.
+//!
+//! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--detector colour|net`, `--classifier MODEL`,
+//! `--doc FILE`.
+//!
+//! Frames are rendered first (not timed), then each goes through the agent's whole
+//! pipeline (colour mask to floor projection and validation) on this thread, with every
+//! stage timed. `--doc FILE` rewrites the generated section of the benchmarks page.
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use proto::{Camera, Pitch};
+use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
+use robot_agent::detection::detect::StageClock;
+use robot_agent::image::RgbImage;
+use robot_agent::runtime::models::{ClassifierArgs, DetectorPreset, classifier, load_models};
+use sim::camera_world::{CameraWorld, CameraWorldConfig};
+use sim::lens::LensModel;
+use sim::render::CameraRig;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "bench_agent",
+    about = "Times the agent's perception pipeline per frame, by stage, on rendered frames"
+)]
+struct BenchArgs {
+    #[command(flatten)]
+    model: ClassifierArgs,
+    /// Simulated matches the frames come from.
+    #[arg(long, default_value_t = 3)]
+    matches: u64,
+    /// Seconds of each match (both cameras of every robot at 5 Hz).
+    #[arg(long, default_value_t = 20.0)]
+    seconds: f64,
+    /// The detector timed: the MiRo's colour path, or appearance proposals judged by the
+    /// ball network (its own section of the document).
+    #[arg(long, value_enum, default_value_t = DetectorPreset::Colour)]
+    detector: DetectorPreset,
+    /// Rewrite the generated section of this markdown file.
+    #[arg(long)]
+    doc: Option<PathBuf>,
+}
+
+const BEGIN: &str = "<!-- bench-vision:begin -->";
+const END: &str = "<!-- bench-vision:end -->";
+const NET_BEGIN: &str = "<!-- bench-vision-net:begin -->";
+const NET_END: &str = "<!-- bench-vision-net:end -->";
+
+/// Every stage's durations, milliseconds, in pipeline order.
+#[derive(Debug, Default)]
+struct Stages {
+    order: Vec<&'static str>,
+    ms: BTreeMap<&'static str, Vec<f64>>,
+}
+
+/// Records each stage's duration per frame.
+struct Recorder<'a> {
+    stages: &'a mut Stages,
+    last: Instant,
+}
+
+impl StageClock for Recorder<'_> {
+    fn mark(&mut self, stage: &'static str) {
+        let now = Instant::now();
+        if !self.stages.order.contains(&stage) {
+            self.stages.order.push(stage);
+        }
+        self.stages
+            .ms
+            .entry(stage)
+            .or_default()
+            .push(now.duration_since(self.last).as_secs_f64() * 1e3);
+        self.last = now;
+    }
+}
+
+/// The `q` quantile of the times (the workspace's one definition); NaN for none.
+fn quantile(v: &[f64], q: f64) -> f64 {
+    proto::stats::quantile(v, q).unwrap_or(f64::NAN)
+}
+
+fn main() -> Result<()> {
+    let args = BenchArgs::parse();
+    let rig = CameraRig::new(LensModel::miro());
+    let [left, right] = load_models(None, None)?;
+    let mut config = PipelineConfig::default();
+    config.detector = args.detector.apply(config.detector);
+    let mut frames = Vec::new();
+    let mut render_s = 0.0;
+    for m in 0..args.matches {
+        let cfg = sim::SimConfig {
+            duration_s: Some(args.seconds),
+            ..sim::SimConfig::default()
+        };
+        let run = sim::run_scenario("match", 100 + m, &cfg)?;
+        let cam = CameraWorldConfig {
+            frame_rate_hz: 5.0,
+            ..CameraWorldConfig::default()
+        };
+        let world = CameraWorld::new(&run, &rig, cam, 100 + m);
+        for (k, t) in world.frame_times().enumerate() {
+            for r in &run.robots {
+                let started = Instant::now();
+                let capture = world.capture(&r.id, t, k as u64);
+                render_s += started.elapsed().as_secs_f64();
+                for ((frame, _), camera) in capture
+                    .frames
+                    .into_iter()
+                    .zip([Camera::Left, Camera::Right])
+                {
+                    let image = RgbImage::new(frame.width, frame.height, frame.rgb)?;
+                    frames.push((
+                        run.stamp_of(t),
+                        camera,
+                        image,
+                        capture.reading,
+                        r.id.clone(),
+                    ));
+                }
+            }
+        }
+        eprintln!(
+            "rendered match {}/{}: {} frames so far",
+            m + 1,
+            args.matches,
+            frames.len()
+        );
+    }
+    let mut stages = Stages::default();
+    let mut totals = Vec::with_capacity(frames.len());
+    let mut agents: BTreeMap<String, Agent> = BTreeMap::new();
+    for (stamp, camera, image, reading, id) in &frames {
+        let agent = match agents.get_mut(id) {
+            Some(a) => a,
+            None => {
+                let classifier = classifier(&config.detector, args.model.classifier.as_deref())?;
+                let a = Agent::new(id, Pitch::default(), config, [left, right], classifier)?;
+                agents.entry(id.clone()).or_insert(a)
+            }
+        };
+        let input = FrameInput {
+            stamp: *stamp,
+            camera: *camera,
+            image,
+            pose: reading.pose,
+            pose_covariance: reading.pose_covariance,
+            head: reading.head,
+        };
+        let started = Instant::now();
+        let mut clock = Recorder {
+            stages: &mut stages,
+            last: started,
+        };
+        agent.on_frame(&input, &mut clock).context("pipeline")?;
+        totals.push(started.elapsed().as_secs_f64() * 1e3);
+    }
+    let observations: u64 = agents.values().map(Agent::observations).sum();
+    let mut rows = Vec::new();
+    for stage in &stages.order {
+        let mut v = stages.ms.get(stage).cloned().unwrap_or_default();
+        v.sort_by(f64::total_cmp);
+        rows.push((stage.to_string(), quantile(&v, 0.5), quantile(&v, 0.99)));
+    }
+    totals.sort_by(f64::total_cmp);
+    let (median, p99) = (quantile(&totals, 0.5), quantile(&totals, 0.99));
+    let render_fps = frames.len() as f64 / render_s.max(1e-9);
+    let mut table = format!(
+        "Measured on one core of a 2-core machine: {} frames (640×360) from {} simulated matches, {} with a ball found.\n\n| stage | median ms | p99 ms |\n|---|---|---|\n",
+        frames.len(),
+        args.matches,
+        observations
+    );
+    for (stage, m, p) in &rows {
+        table += &format!("| {stage} | {m:.3} | {p:.3} |\n");
+    }
+    let met = if median <= 2.0 { "met" } else { "missed" };
+    table += &format!("| **whole pipeline** | **{median:.3}** | **{p99:.3}** |\n\n");
+    table += &format!("Target: ≤ 2 ms per frame median for the whole pipeline: {met}.\n\n");
+    table += &format!(
+        "The camera renderer (640×360, the ball and the other robots in view, sensor noise) renders {render_fps:.0} camera frames per second on one core (target ≥ 100).\n"
+    );
+    println!("{table}");
+    if let Some(path) = &args.doc {
+        let (flag, begin, end) = match args.detector {
+            DetectorPreset::Net => (" --detector net", NET_BEGIN, NET_END),
+            _ => ("", BEGIN, END),
+        };
+        let cmd = format!(
+            "cargo run --release -p bench --bin bench_agent -- --matches {} --seconds {}{flag} --doc {}",
+            args.matches,
+            args.seconds,
+            path.display()
+        );
+        let section = format!("Produced by `{cmd}`.\n\n{table}");
+        let old = std::fs::read_to_string(path).unwrap_or_default();
+        let block = format!("{begin}\n{section}{end}");
+        let new = match (old.find(begin), old.find(end)) {
+            (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + end.len()..]),
+            _ => format!("{old}\n{block}\n"),
+        };
+        std::fs::write(path, new).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("updated {}", path.display());
+    }
+    Ok(())
+}

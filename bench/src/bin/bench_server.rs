@@ -1,0 +1,575 @@
+//! `bench_server`: the fusion server's benchmarks on this machine, in one run.
+//!
+//! 1. raw Zenoh loopback throughput (the ceiling): one session publishes, another counts;
+//! 2. sustained observations per second through Zenoh into the server, without loss;
+//! 3. latency from an observation's publish to the first published state that includes
+//!    it, at 2 000 observations/s (states published on update);
+//! 4. offline replay speed of a 10-minute 5-robot match log;
+//! 5. resident memory of a server process fed by 20 simulated robots.
+//!
+//! Prints a markdown table; `--json FILE` keeps the numbers, `--doc FILE` rewrites the
+//! generated section of docs/benchmarks.md.
+
+use anyhow::{Context, Result};
+use bench::server_bench::*;
+use clap::Parser;
+use fusion_server::shell::live::{Clock, SystemClock};
+use fusion_server::shell::net::{NetConfig, free_loopback_port};
+use fusion_server::shell::serve::{self, ServeConfig};
+use proto::{Camera, Observation, Pose2, Stamp};
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Parser)]
+struct Args {
+    /// Observations for the throughput runs.
+    #[arg(long, default_value_t = 200_000)]
+    messages: u64,
+    /// Seconds of the latency run at 2 000 observations/s.
+    #[arg(long, default_value_t = 10.0)]
+    latency_s: f64,
+    /// Seconds of the 20-robot memory run.
+    #[arg(long, default_value_t = 30.0)]
+    memory_s: f64,
+    /// Match length of the replay run, seconds.
+    #[arg(long, default_value_t = 600.0)]
+    replay_match_s: f64,
+    #[arg(long)]
+    json: Option<PathBuf>,
+    #[arg(long)]
+    doc: Option<PathBuf>,
+    /// Internal: run only a server (the memory run's child process).
+    #[arg(long, hide = true)]
+    child_serve: Option<String>,
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
+    if let Some(endpoint) = &args.child_serve {
+        return rt.block_on(child_server(endpoint));
+    }
+    rt.block_on(run(args))
+}
+
+/// A plain server, as `fusion-server serve` runs it (the memory run measures this process).
+async fn child_server(endpoint: &str) -> Result<()> {
+    let cfg = ServeConfig {
+        net: NetConfig::listening(endpoint),
+        ..ServeConfig::default()
+    };
+    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let stop = async {
+        let mut line = String::new();
+        // The parent closes stdin to stop the child.
+        let _ = tokio::task::spawn_blocking(move || std::io::stdin().read_line(&mut line)).await;
+    };
+    serve::serve(cfg, live, http, stop).await
+}
+
+fn observation(robot: usize, seq: u64, stamp: Stamp, t_s: f64) -> Observation {
+    // A ball rolling slowly around a circle, seen with 2 cm noise-free reports.
+    let a = 0.3 * t_s;
+    Observation {
+        version: proto::VERSION,
+        robot_id: format!("bench{robot}"),
+        seq,
+        camera: if seq.is_multiple_of(2) {
+            Camera::Left
+        } else {
+            Camera::Right
+        },
+        stamp,
+        position_m: [0.8 * a.cos(), 0.6 * a.sin()],
+        covariance_m2: [4e-4, 0.0, 0.0, 4e-4],
+        confidence: 0.9,
+        robot_pose: Pose2 {
+            x_m: -1.5 + 0.1 * robot as f64,
+            y_m: 0.0,
+            theta_rad: 0.0,
+        },
+        pixel: None,
+    }
+}
+
+async fn start_server(
+    cfg: ServeConfig,
+) -> Result<(
+    serve::Shared,
+    tokio::sync::watch::Sender<bool>,
+    tokio::task::JoinHandle<Result<()>>,
+)> {
+    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let (tx, mut rx) = tokio::sync::watch::channel(false);
+    let task = tokio::spawn(serve::serve(cfg, live.clone(), http, async move {
+        let _ = rx.wait_for(|s| *s).await;
+    }));
+    Ok((live, tx, task))
+}
+
+async fn connect(endpoint: &str) -> Result<zenoh::Session> {
+    let s = NetConfig::connecting(endpoint).open().await?;
+    // Wait for the link, so the first messages are not published into the void.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while s.info().peers_zid().await.next().is_none() {
+        anyhow::ensure!(Instant::now() < deadline, "no peer at {endpoint}");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    Ok(s)
+}
+
+async fn publisher(s: &zenoh::Session, key: String) -> Result<zenoh::pubsub::Publisher<'static>> {
+    s.declare_publisher(key)
+        .congestion_control(zenoh::qos::CongestionControl::Block)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// Raw Zenoh: N payloads of an observation's size from one session to another.
+async fn raw_zenoh(n: u64) -> Result<Throughput> {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let rx = NetConfig::listening(&endpoint).open().await?;
+    let got = Arc::new(AtomicU64::new(0));
+    let g = got.clone();
+    let _sub = rx
+        .declare_subscriber("bench/raw")
+        .callback(move |s| {
+            let bytes = s.payload().to_bytes();
+            if !bytes.is_empty() {
+                g.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let tx = connect(&endpoint).await?;
+    let publ = publisher(&tx, "bench/raw".into()).await?;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let payload = proto::encode(&observation(0, 0, SystemClock.now(), 0.0));
+    let t0 = Instant::now();
+    for _ in 0..n {
+        publ.put(payload.clone())
+            .await
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while got.load(Ordering::Relaxed) < n && Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(1)).await;
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    let received = got.load(Ordering::Relaxed);
+    let _ = tx.close().await;
+    let _ = rx.close().await;
+    Ok(Throughput {
+        sent: n,
+        received,
+        secs,
+        payload_bytes: payload.len(),
+    })
+}
+
+/// N observations from 10 robots through Zenoh into a server, as fast as they go.
+async fn server_throughput(n: u64) -> Result<Throughput> {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let cfg = ServeConfig {
+        net: NetConfig::listening(&endpoint),
+        ..ServeConfig::default()
+    };
+    let (live, stop, task) = start_server(cfg).await?;
+    let tx = connect(&endpoint).await?;
+    let robots = 10;
+    let mut pubs = Vec::new();
+    for r in 0..robots {
+        pubs.push(publisher(&tx, format!("rf/robots/bench{r}/obs")).await?);
+    }
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let handled = |live: &serve::Shared| {
+        live.with_engine(|e| {
+            e.counters().observations_accepted + e.counters().rejected.values().sum::<u64>()
+        })
+    };
+    // Each observation is stamped when it is published, captured 50 ms earlier.
+    let start = SystemClock.now();
+    let t0 = Instant::now();
+    for k in 0..n {
+        let stamp = SystemClock.now().offset_secs(-0.05);
+        let o = observation(
+            (k % robots) as usize,
+            k / robots,
+            stamp,
+            stamp.secs_since(start),
+        );
+        pubs[(k % robots) as usize]
+            .put(proto::encode(&o))
+            .await
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while handled(&live) < n && Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(1)).await;
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    let accepted = live.with_engine(|e| e.counters().observations_accepted);
+    let rejected = live.with_engine(|e| e.counters().rejected.clone());
+    if !rejected.is_empty() {
+        eprintln!("      rejected: {rejected:?}");
+    }
+    let _ = tx.close().await;
+    let _ = stop.send(true);
+    task.await??;
+    Ok(Throughput {
+        sent: n,
+        received: accepted,
+        secs,
+        payload_bytes: 0,
+    })
+}
+
+/// Publishes `rate_hz` messages a second for `seconds`; `make(k)` gives the k-th payload
+/// and its tag. Returns, per message, the instant just before its `put` and its tag.
+async fn paced(
+    publ: &zenoh::pubsub::Publisher<'_>,
+    rate_hz: f64,
+    seconds: f64,
+    mut make: impl FnMut(u64) -> (Vec<u8>, u64),
+) -> Result<Vec<(Instant, u64)>> {
+    let n = (rate_hz * seconds) as u64;
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let mut sent = Vec::with_capacity(n as usize);
+    let t0 = Instant::now();
+    for k in 0..n {
+        let due = t0 + period * k as u32;
+        if due > Instant::now() {
+            tokio::time::sleep_until(due.into()).await;
+        }
+        let (payload, tag) = make(k);
+        let at = Instant::now();
+        publ.put(payload)
+            .await
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        sent.push((at, tag));
+    }
+    Ok(sent)
+}
+
+/// Publish → state latency at `rate_hz` for `seconds`, states published on update.
+async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let cfg = ServeConfig {
+        net: NetConfig::listening(&endpoint),
+        publish_on_update: true,
+        ..ServeConfig::default()
+    };
+    let (live, stop, task) = start_server(cfg).await?;
+    let tx = connect(&endpoint).await?;
+    // Arrival times are taken in the subscriber's callback, on Zenoh's receiving thread.
+    let (seen_tx, seen_rx) = std::sync::mpsc::channel::<(Instant, u64)>();
+    let _states = tx
+        .declare_subscriber("rf/ball/state")
+        .callback(move |s| {
+            let at = Instant::now();
+            if let Ok(b) = proto::decode::<proto::BallState>(&s.payload().to_bytes())
+                && let Some(seen) = b.last_seen
+            {
+                let _ = seen_tx.send((at, seen.0));
+            }
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let publ = tx
+        .declare_publisher("rf/robots/bench0/obs")
+        .express(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let start = SystemClock.now();
+    let sent = paced(&publ, rate_hz, seconds, |k| {
+        let stamp = SystemClock.now();
+        let o = observation(0, k, stamp, stamp.secs_since(start));
+        (proto::encode(&o), stamp.0)
+    })
+    .await?;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let _ = tx.close().await;
+    let _ = stop.send(true);
+    task.await??;
+    let inside = live.stats.latency();
+    eprintln!(
+        "      inside the server (arrival to publication): p50 ≤ {:?} s, p99 ≤ {:?} s",
+        inside.quantile_bound(0.5),
+        inside.quantile_bound(0.99)
+    );
+    let mut seen: VecDeque<(Instant, u64)> = seen_rx.try_iter().collect();
+    // Each observation's latency: the first state at or after its publication whose newest
+    // included capture is at least its own.
+    let mut lat_s = Vec::with_capacity(sent.len());
+    for (at, stamp) in &sent {
+        // The state carries capture times through f64 seconds: allow a microsecond.
+        while seen.front().is_some_and(|(_, s)| *s + 1_000 < *stamp) {
+            seen.pop_front();
+        }
+        if let Some((t, _)) = seen.front() {
+            lat_s.push(t.saturating_duration_since(*at).as_secs_f64());
+        }
+    }
+    Ok(Latency::of(rate_hz, sent.len(), lat_s))
+}
+
+/// The same pattern without a server: a message to another session, whose callback
+/// publishes a reply at once (express both ways), at `rate_hz` for `seconds`.
+async fn raw_echo_latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
+    use zenoh::Wait;
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let echo = NetConfig::listening(&endpoint).open().await?;
+    let pong = echo
+        .declare_publisher("bench/pong")
+        .express(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let _ping_sub = echo
+        .declare_subscriber("bench/ping")
+        .callback(move |s| {
+            let _ = pong.put(s.payload().to_bytes().to_vec()).wait();
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let tx = connect(&endpoint).await?;
+    let (seen_tx, seen_rx) = std::sync::mpsc::channel::<(Instant, u64)>();
+    let _pong_sub = tx
+        .declare_subscriber("bench/pong")
+        .callback(move |s| {
+            let at = Instant::now();
+            let b = s.payload().to_bytes();
+            if let Some(seq) = b.get(..8).and_then(|x| <[u8; 8]>::try_from(x).ok()) {
+                let _ = seen_tx.send((at, u64::from_le_bytes(seq)));
+            }
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let ping = tx
+        .declare_publisher("bench/ping")
+        .express(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let sent = paced(&ping, rate_hz, seconds, |k| {
+        let mut payload = k.to_le_bytes().to_vec();
+        payload.resize(230, b' ');
+        (payload, k)
+    })
+    .await?;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let got: std::collections::HashMap<u64, Instant> =
+        seen_rx.try_iter().map(|(t, k)| (k, t)).collect();
+    let lat_s = sent
+        .iter()
+        .filter_map(|(at, k)| {
+            got.get(k)
+                .map(|t| t.saturating_duration_since(*at).as_secs_f64())
+        })
+        .collect();
+    let _ = tx.close().await;
+    let _ = echo.close().await;
+    Ok(Latency::of(rate_hz, sent.len(), lat_s))
+}
+
+/// A simulated match written as a log, then replayed offline, timed.
+fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
+    use fusion_server::matchlog::RecorderSink;
+    use fusion_server::matchlog::replay::{ReplayOptions, replay};
+    use tools::sim_log::{run_of_log, score_run, truth_schemas, write_simulated};
+    let run = tools::sim_robots::simulate(
+        "match",
+        0,
+        sim::SimConfig::default().start,
+        Some(match_s),
+        None,
+    )?;
+    let dir = std::env::temp_dir().join(format!("rf-bench-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let log_of = |prefix: &str, keep: &dyn Fn(&str) -> bool| -> Result<Vec<PathBuf>> {
+        let mut cfg = fusion_server::matchlog::record::RecorderConfig::new(&dir);
+        cfg.file_prefix = prefix.into();
+        let mut sink = Filter {
+            inner: RecorderSink::with_schemas(cfg, run.start, truth_schemas())?,
+            keep,
+        };
+        write_simulated(&run, &proto::KeySpace::default(), &mut sink)?;
+        Ok(sink.inner.finish()?.files)
+    };
+    // What the robots sent (a log of observations), and the same with ground truth.
+    let obs_files = log_of("observations", &|schema| schema == "Observation")?;
+    let truth_files = log_of("truth", &|_| true)?;
+    let opts = ReplayOptions::default();
+
+    let t0 = Instant::now();
+    let log = fusion_server::matchlog::read::read_logs(&obs_files)?;
+    let read_s = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let fused = replay(&log.messages, &opts, &mut (), &mut |_, _| {})?;
+    let fuse_s = t0.elapsed().as_secs_f64();
+    // With --out: the re-fused log written too.
+    let mut out_cfg = fusion_server::matchlog::record::RecorderConfig::new(&dir);
+    out_cfg.file_prefix = "replayed".into();
+    let t0 = Instant::now();
+    let mut out = RecorderSink::create(out_cfg, run.start)?;
+    replay(&log.messages, &opts, &mut out, &mut |_, _| {})?;
+    out.finish()?;
+    let write_s = t0.elapsed().as_secs_f64();
+    // The ground-truth log: every message, the run rebuilt and scored.
+    let t0 = Instant::now();
+    let truth_log = fusion_server::matchlog::read::read_logs(&truth_files)?;
+    replay(&truth_log.messages, &opts, &mut (), &mut |_, _| {})?;
+    let scored = run_of_log(&truth_log.messages)?.map(|run| score_run(&run, &opts.engine.fusion));
+    let full_s = t0.elapsed().as_secs_f64();
+    let _ = std::fs::remove_dir_all(&dir);
+    anyhow::ensure!(scored.is_some(), "the simulated log carries ground truth");
+    Ok(ReplaySpeed {
+        match_s: run.duration_s,
+        robots: run.observer_ids().len(),
+        observations: fused.observations,
+        states: fused.states_written,
+        read_s,
+        fuse_s,
+        write_s,
+        full_s,
+        messages: truth_log.messages.len(),
+    })
+}
+
+/// Passes on only the messages whose schema `keep` accepts.
+struct Filter<'a, S> {
+    inner: S,
+    keep: &'a dyn Fn(&str) -> bool,
+}
+
+impl<S: fusion_server::matchlog::replay::ReplaySink> fusion_server::matchlog::replay::ReplaySink
+    for Filter<'_, S>
+{
+    fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) {
+        if (self.keep)(schema) {
+            self.inner.write(topic, schema, log_time, payload);
+        }
+    }
+}
+
+fn proc_status_kb(pid: u32, field: &str) -> Option<u64> {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    text.lines()
+        .find_map(|l| l.strip_prefix(field))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+}
+
+fn proc_cpu_s(pid: u32) -> Option<f64> {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let after = text.rsplit_once(')')?.1;
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// A server process fed by `robots` simulated robots for `seconds`.
+async fn memory(robots: usize, seconds: f64) -> Result<Memory> {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let exe = std::env::current_exe()?;
+    let mut child = std::process::Command::new(exe)
+        .args(["--child-serve", &endpoint])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .context("starting the server process")?;
+    let pid = child.id();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let rss_idle_kb = proc_status_kb(pid, "VmRSS:").unwrap_or(0);
+    let cfg = tools::sim_robots::SimRobotsConfig {
+        scenario: "match".into(),
+        seed: 5,
+        robots: Vec::new(),
+        duration_s: Some(seconds),
+        team_size: Some(robots),
+        start: SystemClock.now().offset_secs(1.0),
+        repeat: false,
+        status_rate_hz: 5.0,
+        prefix: proto::DEFAULT_PREFIX.into(),
+        net: NetConfig::connecting(&endpoint),
+        keys: None,
+    };
+    let cpu0 = proc_cpu_s(pid).unwrap_or(0.0);
+    let (_stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let t0 = Instant::now();
+    let published = tools::sim_robots::run(cfg, stop_rx).await?;
+    let wall_s = t0.elapsed().as_secs_f64();
+    let cpu_s = proc_cpu_s(pid).unwrap_or(0.0) - cpu0;
+    let rss_kb = proc_status_kb(pid, "VmRSS:").unwrap_or(0);
+    let hwm_kb = proc_status_kb(pid, "VmHWM:").unwrap_or(0);
+    drop(child.stdin.take());
+    let _ = child.wait();
+    Ok(Memory {
+        robots,
+        seconds,
+        published,
+        rss_idle_kb,
+        rss_kb,
+        hwm_kb,
+        cpu_share: cpu_s / wall_s.max(1e-9),
+    })
+}
+
+async fn run(args: Args) -> Result<()> {
+    // The bar shows the stage running; each `inc` counts the one before as done.
+    let stages = tools::progress::Progress::new(5, "benchmark stages");
+    stages.message(format!(
+        "raw Zenoh loopback throughput ({} messages)",
+        args.messages
+    ));
+    let raw = raw_zenoh(args.messages).await?;
+    stages.inc(format!(
+        "server throughput ({} observations)",
+        args.messages
+    ));
+    let server = server_throughput(args.messages).await?;
+    stages.inc(format!(
+        "latency at 2000 observations/s for {} s",
+        args.latency_s
+    ));
+    let raw_latency = raw_echo_latency(2000.0, args.latency_s).await?;
+    let lat = latency(2000.0, args.latency_s).await?;
+    stages.inc(format!(
+        "offline replay of a {} s match",
+        args.replay_match_s
+    ));
+    let replay = replay_speed(args.replay_match_s)?;
+    stages.inc(format!("memory with 20 robots for {} s", args.memory_s));
+    let mem = memory(20, args.memory_s).await?;
+    stages.inc("done");
+    stages.finish();
+    let report = Report {
+        raw,
+        server,
+        raw_latency,
+        latency: lat,
+        replay,
+        memory: mem,
+        cores: std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(0),
+    };
+    let table = report.markdown();
+    println!("{table}");
+    if let Some(p) = &args.json {
+        if let Some(d) = p.parent() {
+            std::fs::create_dir_all(d)?;
+        }
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
+    }
+    if let Some(p) = &args.doc {
+        eval::report::rewrite_section(p, &table)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,13 @@
+//! Benchmarks, the load test and the fuzzer.
+//!
+//! - [`server_bench`]: the server benchmark's results and table (`bench_server`).
+//! - [`load`] and [`load_report`]: a `fusion-server` process fed by many simulated robots at
+//!   once, and what is read back from it (`load_test`).
+//! - [`fuzz`]: a deterministic fuzzer over every decoder and validator (`fuzz`).
+//!
+//! Binaries: `bench_server`, `bench_agent`, `load_test`, `replay_speed`, `trace`, `fuzz`.
+
+pub mod fuzz;
+pub mod load;
+pub mod load_report;
+pub mod server_bench;

@@ -1,0 +1,159 @@
+//! `--labelled DIR`: the agent's detectors on a folder of labelled photos (any layout
+//! `robot-agent evaluate` reads: Pascal VOC or YOLO labels, events in subfolders), a row per
+//! event (top-level subfolder) and detector, events named by `--hold-out` marked as held out
+//! from the ball network's training. Its generated section is marked
+//! `<!-- evaluate-labelled:begin -->` / `…:end -->`.
+
+use anyhow::Result;
+use eval::report;
+use robot_agent::cli::evaluate::{EvaluateOptions, evaluate_items};
+use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
+use robot_agent::detection::detect::{Detector, DetectorConfig};
+use robot_agent::labels::eval::LabelReport;
+use robot_agent::runtime::models::DetectorPreset;
+use std::path::{Path, PathBuf};
+
+pub const SECTION_BEGIN: &str = "<!-- evaluate-labelled:begin -->";
+pub const SECTION_END: &str = "<!-- evaluate-labelled:end -->";
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct LabelledEvalArgs {
+    /// Score the detectors on this folder of labelled photos instead (labels beside the
+    /// photos or in the same layout under `--labelled-labels`).
+    #[arg(long, value_name = "DIR")]
+    pub labelled: Option<PathBuf>,
+    /// With `--labelled`: the label folder, when not beside the photos.
+    #[arg(long, requires = "labelled")]
+    pub labelled_labels: Option<PathBuf>,
+    /// With `--labelled`: an event (top-level subfolder) held out of the network's
+    /// training (repeatable); those rows are marked and summed apart.
+    #[arg(long = "hold-out", requires = "labelled")]
+    pub hold_out: Vec<String>,
+}
+
+fn event(item: &Item) -> String {
+    item.folder.split('/').next().unwrap_or("").to_string()
+}
+
+fn pct(v: Option<f64>) -> String {
+    v.map_or("–".into(), |v| format!("{:.1}", 100.0 * v))
+}
+
+fn row(name: &str, split: &str, detector: &str, r: &LabelReport) -> String {
+    let at = |p: f64| {
+        r.recall_at_precision(p)
+            .map_or("–".to_string(), |q| format!("{:.1}", 100.0 * q.recall))
+    };
+    let bands: Vec<String> = r
+        .bands
+        .iter()
+        .map(|b| format!("{} ({})", pct(b.recall_published), b.balls))
+        .collect();
+    format!(
+        "| {name} | {split} | {detector} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} |",
+        r.images,
+        r.images_with_ball,
+        pct(r.recall_published),
+        pct(r.precision),
+        pct(r.ball_recall),
+        at(0.97),
+        at(0.9),
+        r.false_positives_per_image.unwrap_or(0.0),
+        bands.join(" | "),
+        r.timing_ms
+            .map_or("–".to_string(), |t| format!("{:.1}", t.median)),
+    )
+}
+
+/// Scores both shipped detectors on the folder and prints (and, with `doc`, writes) the
+/// table.
+pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
+    let Some(dir) = &args.labelled else {
+        anyhow::bail!("--labelled DIR is needed");
+    };
+    let folder = LabelledFolder::open(&LabelledArgs {
+        images: Some(dir.clone()),
+        labels: args.labelled_labels.clone(),
+        ball_classes: Vec::new(),
+        ball_names: Vec::new(),
+        camera: None,
+        calibration: None,
+    })?;
+    for h in &args.hold_out {
+        anyhow::ensure!(
+            folder.items.iter().any(|i| &event(i) == h),
+            "--hold-out {h}: no photos in that subfolder of {}",
+            dir.display()
+        );
+    }
+    let mut events: Vec<String> = folder.items.iter().map(event).collect();
+    events.sort();
+    events.dedup();
+    let mut lines = vec![
+        "| event | split | detector | photos | with a ball | recall % | precision % | ball recall % | recall % at 97 % precision | recall % at 90 % precision | false per photo | < 10 px | 10–20 px | 20–40 px | >= 40 px | ms median |".to_string(),
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
+    ];
+    let min_probability = robot_agent::pipeline::ValidationConfig::default().min_probability;
+    for (preset, name) in [
+        (DetectorPreset::Net, "net"),
+        (DetectorPreset::Colour, "colour"),
+    ] {
+        let config = preset.apply(DetectorConfig::default());
+        let detector = Detector::new(config)?;
+        let classifier = robot_agent::builtin::classifier(&config)?;
+        let score = |items: &[&Item], what: &str| {
+            evaluate_items(
+                &folder,
+                items,
+                &detector,
+                classifier.as_ref(),
+                &EvaluateOptions {
+                    min_probability,
+                    what,
+                    verbose: false,
+                },
+            )
+        };
+        for e in &events {
+            let items: Vec<&Item> = folder.items.iter().filter(|i| &event(i) == e).collect();
+            let split = if args.hold_out.contains(e) {
+                "held out"
+            } else if args.hold_out.is_empty() {
+                "–"
+            } else {
+                "training"
+            };
+            let out = score(&items, e)?;
+            lines.push(row(e, split, name, &out.report));
+        }
+        if !args.hold_out.is_empty() {
+            let held: Vec<&Item> = folder
+                .items
+                .iter()
+                .filter(|i| args.hold_out.contains(&event(i)))
+                .collect();
+            let out = score(&held, "held out")?;
+            lines.push(row("**all held out**", "held out", name, &out.report));
+        }
+    }
+    let table = lines.join("\n");
+    println!("{table}");
+    if let Some(path) = doc {
+        let mut cmd = format!(
+            "cargo run --release -p eval --bin evaluate -- --labelled {}",
+            dir.display()
+        );
+        for h in &args.hold_out {
+            cmd.push_str(&format!(" --hold-out {h}"));
+        }
+        cmd.push_str(&format!(" --doc {}", path.display()));
+        let section = format!(
+            "Produced by `{cmd}` (real photos; the shipped detectors, no camera model, \
+             `min_probability` {min_probability}; recall and precision per photo, ball recall \
+             and the width bands per labelled ball).\n\n{table}"
+        );
+        report::rewrite_section_between(path, SECTION_BEGIN, SECTION_END, &section)?;
+        eprintln!("updated {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,121 @@
+use super::*;
+use proto::PathSample;
+use sim::score::quantile;
+use tools::track_fixtures::Roll;
+
+fn roll_track(roll: &Roll, pitch: &Pitch) -> (Track, Vec<f64>) {
+    let (samples, bounces) = roll.run(&Bounds::from_pitch(pitch));
+    (
+        Track {
+            name: "roll".into(),
+            samples,
+        },
+        bounces,
+    )
+}
+
+fn setup() -> TrackSetup {
+    TrackSetup {
+        pitch: Pitch::default(),
+        observers: ObserverSetup::default(),
+    }
+}
+
+fn method(run: &TrackRun, m: TrackMethod) -> &TrackSamples {
+    run.methods
+        .iter()
+        .find(|(x, _)| *x == m)
+        .map(|(_, s)| s)
+        .unwrap_or_else(|| panic!("no {m:?}"))
+}
+
+#[test]
+fn a_path_is_interpolated_between_its_samples() {
+    let p = Prediction {
+        version: proto::VERSION,
+        stamp: Stamp(0),
+        horizon_s: 0.2,
+        samples: (0..3)
+            .map(|k| PathSample {
+                t_s: 0.1 * k as f64,
+                position_m: [k as f64, 0.0],
+                velocity_mps: [10.0, 0.0],
+            })
+            .collect(),
+        bounces: Vec::new(),
+        stop: None,
+    };
+    assert_eq!(path_at(&p, 0.05).map(|q| (q[0] * 1e6).round()), Some(5e5));
+    assert_eq!(path_at(&p, -1.0), Some([0.0, 0.0]));
+    assert_eq!(path_at(&p, 9.0), Some([2.0, 0.0]));
+}
+
+#[test]
+fn ticks_stay_inside_the_track() {
+    let (track, _) = roll_track(&Roll::default(), &Pitch::default());
+    let ticks = tick_times_s(&track);
+    assert_eq!(ticks.len(), 250);
+    assert!(ticks.iter().all(|t| track.covers(*t)));
+}
+
+#[test]
+fn the_core_predicts_a_roll_through_its_bounce_and_beats_constant_velocity() {
+    let pitch = Pitch::default();
+    let (track, truth) = roll_track(&Roll::default(), &pitch);
+    let run = evaluate_track(&track, &setup(), 1);
+    assert_eq!(run.bounces, 1);
+    assert_eq!(run.pushes, 0);
+    assert_eq!(run.samples_outside, 0);
+    let k1 = HORIZONS_S.iter().position(|h| *h == 1.0).unwrap_or(0);
+    let k2 = HORIZONS_S.len() - 1;
+    let fusion = method(&run, TrackMethod::Fusion);
+    let fixed = method(&run, TrackMethod::FixedPhysics);
+    let cv = method(&run, TrackMethod::ConstantVelocity);
+    let median = |v: &[f64]| quantile(v, 0.5).unwrap_or(f64::INFINITY);
+    let f1 = median(&fusion.horizon_err_m[k1]);
+    assert!(f1 < 0.1, "fusion 1 s median {f1}");
+    assert!(median(&fixed.horizon_err_m[k1]) < 0.1);
+    let (f2, c2) = (
+        median(&fusion.horizon_err_m[k2]),
+        median(&cv.horizon_err_m[k2]),
+    );
+    assert!(f2 < 0.5 * c2, "2 s: fusion {f2} vs constant velocity {c2}");
+    assert!(median(&fusion.now_err_m) < 0.03);
+    assert!(!fusion.bounce_time_err_s.is_empty());
+    assert!(median(&fusion.bounce_time_err_s) < 0.1, "{truth:?}");
+    assert!(cv.bounce_time_err_s.is_empty() && cv.bounce_missed == 0);
+    assert!(
+        fusion.first_estimate_s[0] < 0.3,
+        "{:?}",
+        fusion.first_estimate_s
+    );
+    assert_eq!(fusion.final_model.len(), 1);
+    assert_eq!(fixed.final_model[0].rolling_decel_mps2, 0.3);
+    assert_eq!(fixed.final_model[0].wall_restitution, 0.5);
+    assert!(fusion.moving_states > 100);
+    assert_eq!(cv.moving_states, 0);
+    assert!(fusion.observations_applied as usize >= run.observations * 9 / 10);
+}
+
+#[test]
+fn windows_across_a_kick_are_left_out() {
+    let pitch = Pitch::default();
+    let (track, _) = roll_track(
+        &Roll {
+            kick_at_s: 2.0,
+            duration_s: 4.0,
+            ..Roll::default()
+        },
+        &pitch,
+    );
+    let run = evaluate_track(&track, &setup(), 2);
+    assert_eq!(run.pushes, 1);
+    let fusion = method(&run, TrackMethod::Fusion);
+    assert!(
+        fusion.pushed_windows.iter().all(|n| *n > 0),
+        "{:?}",
+        fusion.pushed_windows
+    );
+    // Before the kick the ball rests: the core says stopped, and so it should.
+    assert!(fusion.stopped_while_moving * 5 < fusion.moving_states.max(1));
+}

@@ -1,0 +1,265 @@
+//! `robot-agent detect`: the detector on a plain folder of photos (PNG or JPEG, no index, no
+//! pose), one JSON line per photo with every candidate it considered, and optionally the
+//! photos with the candidates drawn.
+//!
+//! A photo that cannot be read or decoded is reported on its own line (`file`, `error`) and
+//! counted; the run goes on and fails at the end if any photo did.
+
+use super::camera_args::{CameraArgs, PhotoCamera};
+use crate::detection::detect::{CandidateClassifier, Detector, NoClock};
+use crate::detection::photo::{PhotoCandidate, detect_photo, overlay};
+use anyhow::{Context, Result, bail};
+use serde::Serialize;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+#[derive(Debug, clap::Args)]
+pub struct DetectArgs {
+    #[command(flatten)]
+    pub model: crate::runtime::models::ClassifierArgs,
+    #[command(flatten)]
+    pub detector: crate::runtime::models::DetectorArgs,
+    /// Folder of photos (PNG or JPEG; other files are left alone).
+    #[arg(long)]
+    pub images: PathBuf,
+    /// Write the JSON lines here instead of to stdout.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write each photo with its candidates drawn (PNG) to this folder.
+    #[arg(long)]
+    pub overlays: Option<PathBuf>,
+    /// Pipeline settings (TOML: `[detector]`, and `[validation]`'s `min_probability`).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+}
+
+/// One photo's line.
+#[derive(Debug, Serialize)]
+struct PhotoLine {
+    file: String,
+    width_px: u32,
+    height_px: u32,
+    /// Detection and classification, without decoding the file.
+    time_ms: f64,
+    candidates: Vec<CandidateLine>,
+}
+
+#[derive(Debug, Serialize)]
+struct CandidateLine {
+    u_px: f64,
+    v_px: f64,
+    radius_px: f64,
+    probability: Option<f64>,
+    published: bool,
+    rejection: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    angular_radius_rad: Option<f64>,
+}
+
+/// A photo that could not be processed.
+#[derive(Debug, Serialize)]
+struct FailedLine<'a> {
+    file: &'a str,
+    error: String,
+}
+
+fn round(value: f64, decimals: i32) -> f64 {
+    let scale = 10f64.powi(decimals);
+    (value * scale).round() / scale
+}
+
+impl From<&PhotoCandidate> for CandidateLine {
+    fn from(c: &PhotoCandidate) -> Self {
+        CandidateLine {
+            u_px: round(c.circle.center_px[0], 2),
+            v_px: round(c.circle.center_px[1], 2),
+            radius_px: round(c.circle.radius_px, 2),
+            probability: c.probability.map(|p| round(p, 4)),
+            published: c.published(),
+            rejection: c.rejection.map(|r| r.reason()),
+            angular_radius_rad: c.angular_radius_rad.map(|a| round(a, 5)),
+        }
+    }
+}
+
+/// How long between progress lines on stderr.
+const PROGRESS_EVERY: Duration = Duration::from_secs(2);
+
+/// What the detector runs with.
+struct Detection {
+    detector: Detector,
+    classifier: Box<dyn CandidateClassifier + Send + Sync>,
+    min_probability: f64,
+}
+
+pub fn run(args: DetectArgs) -> Result<()> {
+    let mut config = crate::runtime::models::load_config(args.config.as_deref())?;
+    config.detector = args.detector.preset.apply(config.detector);
+    let detection = Detection {
+        detector: Detector::new(config.detector).context("the detector settings")?,
+        classifier: crate::runtime::models::classifier(
+            &config.detector,
+            args.model.classifier.as_deref(),
+        )?,
+        min_probability: config.validation.min_probability,
+    };
+    let mut camera = PhotoCamera::new(&args.camera)?;
+    let files = crate::io::image_io::image_files(&args.images)?;
+    if files.is_empty() {
+        bail!("{} holds no PNG or JPEG files", args.images.display());
+    }
+    if let Some(dir) = &args.overlays {
+        prepare_overlays(dir, &args.images)?;
+    }
+    let mut out: Box<dyn Write> = match &args.out {
+        Some(path) => Box::new(BufWriter::new(
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+        )),
+        None => Box::new(BufWriter::new(std::io::stdout().lock())),
+    };
+    let (mut failed, mut with_ball) = (0usize, 0usize);
+    let mut last_progress = Instant::now();
+    for (k, path) in files.iter().enumerate() {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        match detect_one(
+            path,
+            &name,
+            &detection,
+            &mut camera,
+            args.overlays.as_deref(),
+        ) {
+            Ok(line) => {
+                with_ball += usize::from(line.candidates.iter().any(|c| c.published));
+                writeln!(out, "{}", serde_json::to_string(&line)?)?;
+            }
+            Err(Failure::Photo(err)) => {
+                failed += 1;
+                // The error names the photo.
+                eprintln!("{err:#}");
+                let line = FailedLine {
+                    file: &name,
+                    error: format!("{err:#}"),
+                };
+                writeln!(out, "{}", serde_json::to_string(&line)?)?;
+            }
+            Err(Failure::Fatal(err)) => return Err(err.context(name)),
+        }
+        if last_progress.elapsed() >= PROGRESS_EVERY {
+            eprintln!("{} of {} photos, {failed} failed", k + 1, files.len());
+            last_progress = Instant::now();
+        }
+    }
+    out.flush()?;
+    eprintln!(
+        "{} photos: a ball published in {with_ball}, {failed} could not be processed",
+        files.len()
+    );
+    if failed > 0 {
+        bail!("{failed} of {} photos could not be processed", files.len());
+    }
+    Ok(())
+}
+
+/// Why a photo gave no line of candidates.
+enum Failure {
+    /// The photo itself: reported and counted, the run goes on.
+    Photo(anyhow::Error),
+    /// The run's set-up does not fit the photos (a calibration of another size).
+    Fatal(anyhow::Error),
+}
+
+/// One photo: decoded, detected, drawn.
+fn detect_one(
+    path: &Path,
+    name: &str,
+    detection: &Detection,
+    camera: &mut PhotoCamera,
+    overlays: Option<&Path>,
+) -> Result<PhotoLine, Failure> {
+    let image = crate::io::image_io::load_rgb(path).map_err(|e| Failure::Photo(e.into()))?;
+    let (width_px, height_px) = (image.width(), image.height());
+    let model = camera
+        .for_photo(width_px, height_px)
+        .map_err(Failure::Fatal)?;
+    let started = Instant::now();
+    let candidates = detect_photo(
+        &detection.detector,
+        detection.classifier.as_ref(),
+        detection.min_probability,
+        &image,
+        model.as_ref(),
+        &mut NoClock,
+    )
+    .map_err(|e| Failure::Photo(anyhow::Error::from(e).context(format!("detecting in {name}"))))?;
+    let time_ms = started.elapsed().as_secs_f64() * 1e3;
+    if let Some(dir) = overlays {
+        write_overlay(dir, name, &image, &candidates).map_err(Failure::Fatal)?;
+    }
+    Ok(PhotoLine {
+        file: name.to_string(),
+        width_px,
+        height_px,
+        time_ms: round(time_ms, 3),
+        candidates: candidates.iter().map(CandidateLine::from).collect(),
+    })
+}
+
+/// Creates the overlay folder; it must not be the photos' own folder, whose next run
+/// would take the overlays for photos.
+fn prepare_overlays(dir: &Path, images: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let same = |a: &Path, b: &Path| -> Result<bool> {
+        let canon = |p: &Path| -> Result<PathBuf> {
+            p.canonicalize()
+                .with_context(|| format!("reading {}", p.display()))
+        };
+        Ok(canon(a)? == canon(b)?)
+    };
+    if same(dir, images)? {
+        bail!(
+            "--overlays {} is the photos' folder: choose another",
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+/// `NAME.png` for a PNG photo, `NAME.EXT.png` for a JPEG (so `a.png` and `a.jpg` do not
+/// overwrite each other's).
+fn overlay_name(photo: &str) -> String {
+    if photo.to_ascii_lowercase().ends_with(".png") {
+        photo.to_string()
+    } else {
+        format!("{photo}.png")
+    }
+}
+
+fn write_overlay(
+    dir: &Path,
+    name: &str,
+    image: &crate::image::RgbImage,
+    candidates: &[PhotoCandidate],
+) -> Result<()> {
+    let path = dir.join(overlay_name(name));
+    let png = crate::io::image_io::encode_png(&overlay(image, candidates))
+        .with_context(|| format!("encoding {}", path.display()))?;
+    std::fs::write(&path, png).with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overlays_of_a_png_and_a_jpeg_of_one_name_do_not_collide() {
+        assert_eq!(overlay_name("a.png"), "a.png");
+        assert_eq!(overlay_name("B.PNG"), "B.PNG");
+        assert_eq!(overlay_name("a.jpg"), "a.jpg.png");
+    }
+}

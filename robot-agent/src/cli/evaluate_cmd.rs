@@ -1,0 +1,149 @@
+//! `robot-agent evaluate`: the agent's detector on a folder of labelled photos, scored
+//! against the labelled ball boxes ([`crate::labels::eval`]).
+//!
+//! Every photo is searched on its own ([`crate::cli::evaluate`]); with photos in
+//! subfolders (events), every folder also gets its own row.
+
+use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
+use crate::cli::labelled::{LabelledArgs, LabelledFolder};
+use crate::detection::detect::Detector;
+use anyhow::{Context, Result};
+use std::path::PathBuf;
+
+#[derive(Debug, clap::Args)]
+pub struct EvaluateArgs {
+    #[command(flatten)]
+    pub model: crate::runtime::models::ClassifierArgs,
+    #[command(flatten)]
+    pub detector: crate::runtime::models::DetectorArgs,
+    #[command(flatten)]
+    pub folder: LabelledArgs,
+    /// Pipeline settings (TOML: `[detector]`, `[validation]` for `min_probability`).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Also write the report, with every image's outcome, as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Also draw recall by ball size as a PNG bar chart.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Also draw the precision-recall curve as a PNG.
+    #[arg(long)]
+    pub pr_plot: Option<PathBuf>,
+    /// A line per photo on stderr.
+    #[arg(long)]
+    pub verbose: bool,
+}
+
+fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)?;
+    }
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+pub fn run(args: EvaluateArgs) -> Result<()> {
+    let mut config = crate::runtime::models::load_config(args.config.as_deref())?;
+    config.detector = args.detector.preset.apply(config.detector);
+    let folder = LabelledFolder::open(&args.folder)?;
+    let detector = Detector::new(config.detector).context("the detector's settings")?;
+    let classifier =
+        crate::runtime::models::classifier(&config.detector, args.model.classifier.as_deref())?;
+    let items: Vec<_> = folder.items.iter().collect();
+    let out = evaluate_items(
+        &folder,
+        &items,
+        &detector,
+        classifier.as_ref(),
+        &EvaluateOptions {
+            min_probability: config.validation.min_probability,
+            what: "evaluating",
+            verbose: args.verbose,
+        },
+    )?;
+    let report = &out.report;
+    println!("{report}");
+    if out.folders.len() > 1 {
+        println!();
+        println!(
+            "{:<28} {:>6} {:>8} {:>9} {:>10} {:>8} {:>8}",
+            "folder", "photos", "recall", "precision", "ball recall", "FP/photo", "ms"
+        );
+        for (name, r) in &out.folders {
+            let pct =
+                |v: Option<f64>| v.map_or("–".to_string(), |v| format!("{:.1} %", 100.0 * v));
+            println!(
+                "{:<28} {:>6} {:>8} {:>9} {:>10} {:>8} {:>8}",
+                if name.is_empty() { "." } else { name },
+                r.images,
+                pct(r.recall_published),
+                pct(r.precision),
+                pct(r.ball_recall),
+                r.false_positives_per_image
+                    .map_or("–".to_string(), |v| format!("{v:.3}")),
+                r.timing_ms
+                    .map_or("–".to_string(), |t| format!("{:.2}", t.median))
+            );
+        }
+    }
+    if out.unlabelled + out.unreadable + out.warnings > 0 {
+        println!(
+            "{} images without a label file (taken as no ball), {} left out \
+             (unreadable image or labels), {} label warnings",
+            out.unlabelled, out.unreadable, out.warnings
+        );
+    }
+    if let Some(path) = &args.json {
+        // The report as before, with the per-folder reports beside it.
+        let mut json = serde_json::to_value(report)?;
+        if let Some(map) = json.as_object_mut() {
+            map.insert(
+                "folders".into(),
+                out.folders
+                    .iter()
+                    .map(|(n, r)| {
+                        Ok(serde_json::json!({"folder": n, "report": serde_json::to_value(r)?}))
+                    })
+                    .collect::<Result<Vec<_>, serde_json::Error>>()?
+                    .into(),
+            );
+        }
+        write_file(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.pr_plot {
+        super::pr_chart::write_png(
+            path,
+            "Precision and recall",
+            super::pr_chart::Curve {
+                name: "detector",
+                points: &report.pr_curve,
+                threshold: config.validation.min_probability,
+            },
+        )?;
+        println!(
+            "wrote {} (precision against recall as the threshold falls)",
+            path.display()
+        );
+    }
+    if let Some(path) = &args.plot {
+        let groups: Vec<Vec<Option<f64>>> = report
+            .bands
+            .iter()
+            .map(|b| vec![b.recall_published, b.recall_best])
+            .collect();
+        let chart = super::bar_chart::grouped_bars(&groups)?;
+        write_file(path, &crate::io::image_io::encode_png(&chart)?)?;
+        println!(
+            "wrote {} (recall by ball width {}; blue: published, orange: best candidate)",
+            path.display(),
+            report
+                .bands
+                .iter()
+                .map(|b| b.band.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,264 @@
+//! `robot-agent train`: the ball network (default) from photos with labelled ball boxes,
+//! or the HOG + SVM classifier from the same photos or from folders of ball and non-ball
+//! patches.
+
+use crate::cli::labelled::{Item, LabelledArgs, LabelledFolder};
+use crate::cli::net_train::{held_out, train_on_photos};
+use crate::cli::train::{fit_and_write, folder_patches, labelled_folder_patches};
+use crate::detection::ballnet_data::SampleConfig;
+use crate::detection::ballnet_train::NetTrainConfig;
+use anyhow::{Context, Result, bail};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Which classifier to train.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModelKind {
+    /// The ball network: any ball colour, refines the ball's circle (`.safetensors`).
+    Cnn,
+    /// The HOG + SVM filter of the colour detector (`.json`).
+    HogSvm,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TrainArgs {
+    /// The classifier to train. Default: the ball network from labelled photos, the
+    /// HOG + SVM filter from patch folders.
+    #[arg(long, value_enum)]
+    pub model: Option<ModelKind>,
+    /// Folder of ball patches (PNG or JPEG, any size; each image is one candidate window;
+    /// HOG + SVM only).
+    #[arg(
+        long,
+        requires = "negatives",
+        required_unless_present = "images",
+        conflicts_with = "images"
+    )]
+    pub positives: Option<PathBuf>,
+    /// Folder of non-ball patches.
+    #[arg(long, requires = "positives")]
+    pub negatives: Option<PathBuf>,
+    /// Labelled photos (`--images DIR [--labels DIR]`, as `evaluate` takes them).
+    #[command(flatten)]
+    pub labelled: LabelledArgs,
+    /// Hold out a subfolder of `--images` (an event: repeatable) for the held-out score.
+    #[arg(long = "hold-out", value_name = "FOLDER")]
+    pub hold_out: Vec<String>,
+    /// A separate folder of labelled photos (labels beside them) for the held-out score.
+    #[arg(long, value_name = "DIR")]
+    pub val: Option<PathBuf>,
+    /// Training epochs (ball network).
+    #[arg(long, default_value_t = NetTrainConfig::default().epochs)]
+    pub epochs: usize,
+    /// Samples per batch (ball network).
+    #[arg(long, default_value_t = NetTrainConfig::default().batch)]
+    pub batch: usize,
+    /// Peak learning rate (ball network; cosine schedule).
+    #[arg(long, default_value_t = NetTrainConfig::default().learning_rate)]
+    pub learning_rate: f64,
+    /// Train without augmentation (ball network).
+    #[arg(long)]
+    pub no_augment: bool,
+    /// The largest hue turn of the colour augmentation, degrees (180: any ball colour).
+    #[arg(long, default_value_t = NetTrainConfig::default().max_hue_turn_rad.to_degrees())]
+    pub hue_turn_deg: f64,
+    /// Moved and scaled copies of every labelled ball (ball network).
+    #[arg(long, default_value_t = SampleConfig::default().copies_per_ball)]
+    pub copies: usize,
+    /// Appearance proposals per photo that become samples (ball network; more gives more
+    /// hard negatives). Default: as many as the detector makes.
+    #[arg(long)]
+    pub proposals: Option<usize>,
+    /// Random negative windows per labelled photo.
+    #[arg(long, default_value_t = 8)]
+    pub random_negatives: usize,
+    /// Seed of the samples, the augmentation, the initial weights and (HOG + SVM) the split
+    /// and folds.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Where to write the model (`.safetensors` for the network, JSON for HOG + SVM).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The held-out precision-recall curve as a PNG (ball network).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// The held-out report as JSON (ball network).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)?;
+    }
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+pub fn run(args: TrainArgs) -> Result<()> {
+    let kind = args.model.unwrap_or(if args.positives.is_some() {
+        ModelKind::HogSvm
+    } else {
+        ModelKind::Cnn
+    });
+    match kind {
+        ModelKind::HogSvm => run_svm(args),
+        ModelKind::Cnn => run_net(args),
+    }
+}
+
+fn run_net(args: TrainArgs) -> Result<()> {
+    if args.positives.is_some() {
+        bail!("the ball network trains on labelled photos: give --images DIR (or --model hog-svm)");
+    }
+    let folder = LabelledFolder::open(&args.labelled)?;
+    let (val_items, train_items): (Vec<&Item>, Vec<&Item>) = folder
+        .items
+        .iter()
+        .partition(|i| held_out(i, &args.hold_out));
+    for f in &args.hold_out {
+        if !val_items
+            .iter()
+            .any(|i| held_out(i, std::slice::from_ref(f)))
+        {
+            bail!("--hold-out {f}: no photos in that folder of the --images folder");
+        }
+    }
+    if train_items.is_empty() {
+        bail!("every photo is held out: nothing is left to train on");
+    }
+    let val_folder = match &args.val {
+        Some(dir) => Some(LabelledFolder::open(&LabelledArgs {
+            images: Some(dir.clone()),
+            labels: None,
+            ..args.labelled.clone()
+        })?),
+        None => None,
+    };
+    let (val_folder, val_items): (&LabelledFolder, Vec<&Item>) = match &val_folder {
+        Some(v) => (v, v.items.iter().collect()),
+        None => (&folder, val_items),
+    };
+    let cfg = NetTrainConfig {
+        epochs: args.epochs,
+        batch: args.batch,
+        learning_rate: args.learning_rate,
+        augment: !args.no_augment,
+        max_hue_turn_rad: args.hue_turn_deg.to_radians(),
+        seed: args.seed,
+        ..NetTrainConfig::default()
+    };
+    let mut samples = SampleConfig {
+        copies_per_ball: args.copies,
+        random_per_photo: args.random_negatives,
+        ..SampleConfig::default()
+    };
+    if let Some(n) = args.proposals {
+        anyhow::ensure!(n > 0, "--proposals must be at least 1");
+        samples.appearance.max_candidates = n;
+    }
+    let images = args
+        .labelled
+        .images
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    let mut metadata = BTreeMap::new();
+    metadata.insert(
+        "data".to_string(),
+        format!(
+            "{images}: {} photos for training{}",
+            train_items.len(),
+            if args.hold_out.is_empty() {
+                String::new()
+            } else {
+                format!(", held out: {}", args.hold_out.join(", "))
+            }
+        ),
+    );
+    metadata.insert(
+        "command".to_string(),
+        std::iter::once("robot-agent".to_string())
+            .chain(std::env::args().skip(1))
+            .collect::<Vec<_>>()
+            .join(" "),
+    );
+    metadata.insert("seed".to_string(), args.seed.to_string());
+    let started = Instant::now();
+    let out = train_on_photos(
+        &folder,
+        &train_items,
+        (val_folder, &val_items),
+        &cfg,
+        &samples,
+        metadata,
+    )?;
+    let mut file = out.trained.file.clone();
+    if let Some(report) = &out.held_out {
+        println!("held-out photos ({}):", val_items.len());
+        println!("{report}");
+        // Record the held-out score in the file itself.
+        let mut meta = out.trained.net.metadata().clone();
+        meta.insert(
+            "held_out".to_string(),
+            format!(
+                "{} photos: recall {:.3}, precision {:.3}, ball recall {:.3} at p >= 0.5",
+                report.images,
+                report.recall_published.unwrap_or(0.0),
+                report.precision.unwrap_or(0.0),
+                report.ball_recall.unwrap_or(0.0)
+            ),
+        );
+        file = crate::detection::ballnet_train::with_metadata(&file, &meta)?;
+        if let Some(path) = &args.plot {
+            super::pr_chart::write_png(
+                path,
+                "Held-out precision and recall",
+                super::pr_chart::Curve {
+                    name: "ball network",
+                    points: &report.pr_curve,
+                    threshold: 0.5,
+                },
+            )?;
+            println!("wrote {}", path.display());
+        }
+        if let Some(path) = &args.json {
+            write_file(path, serde_json::to_string_pretty(report)?.as_bytes())?;
+            println!("wrote {}", path.display());
+        }
+    }
+    write_file(&args.out, &file)?;
+    println!(
+        "wrote {} ({} bytes, epoch {} of {}) in {:.0} s",
+        args.out.display(),
+        file.len(),
+        out.trained.best_epoch,
+        out.trained.epochs.len(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn run_svm(args: TrainArgs) -> Result<()> {
+    let started = Instant::now();
+    let mut progress = |line: &str| eprintln!("[{:6.1} s] {line}", started.elapsed().as_secs_f64());
+    let (mut positives, mut negatives) = (Vec::new(), Vec::new());
+    if let (Some(p), Some(n)) = (&args.positives, &args.negatives) {
+        positives.extend(folder_patches(p)?);
+        negatives.extend(folder_patches(n)?);
+    }
+    if args.labelled.given() {
+        let (p, n) = labelled_folder_patches(
+            &args.labelled,
+            args.random_negatives,
+            args.seed,
+            &mut progress,
+        )?;
+        positives.extend(p);
+        negatives.extend(n);
+    }
+    if !(args.positives.is_some() || args.labelled.given()) {
+        bail!("give --positives and --negatives, or --images and --labels");
+    }
+    fit_and_write(&positives, &negatives, args.seed, &args.out, &mut progress)
+}

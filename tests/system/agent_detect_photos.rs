@@ -1,0 +1,202 @@
+//! `robot-agent detect` as a process, on a folder of photos with no index: a ball rendered
+//! by the simulator, the same view without it and a file that is not an image; camera
+//! flags and a calibration of another size.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+use common::halved;
+use proto::Pose2;
+use robot_agent::image::RgbImage;
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// The `robot-agent` command line, built by this package from the product's source.
+const AGENT_CLI: &str = env!("CARGO_BIN_EXE_system-robot-agent");
+
+/// The simulated MiRo's left camera at the centre spot, looking along the pitch, with the
+/// ball `ball_m` ahead (or none): the photo and the ball's centre and radius in it.
+fn rendered(ball_m: Option<[f64; 2]>) -> (RgbImage, Option<([f64; 2], f64)>) {
+    let rig = sim::render::CameraRig::new(sim::lens::LensModel::miro());
+    let mut scene = sim::render_scene::Scene::default();
+    scene.ball_m = ball_m.map(|[x, y]| [x, y, scene.pitch.ball_radius_m]);
+    let [(frame, truth), _] = sim::render::render_robot_cameras(
+        &rig,
+        &scene,
+        Pose2::default(),
+        sim::head::default_head(),
+        7,
+    );
+    let truth = truth
+        .filter(|t| t.in_frame && t.visible_fraction > 0.9)
+        .and_then(|t| Some((t.center_px?, t.radius_px)));
+    let image = RgbImage::new(frame.width, frame.height, frame.rgb).unwrap();
+    (image, truth)
+}
+
+fn write_png(path: &Path, image: &RgbImage) {
+    std::fs::write(path, robot_agent::io::image_io::encode_png(image).unwrap()).unwrap();
+}
+
+fn detect(args: &[&str]) -> Output {
+    Command::new(AGENT_CLI)
+        .arg("detect")
+        // Rendered MiRo frames: the MiRo's colour path.
+        .args(["--detector", "colour"])
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn lines(stdout: &[u8]) -> Vec<Value> {
+    String::from_utf8_lossy(stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn published(line: &Value) -> Vec<&Value> {
+    line["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["published"] == true)
+        .collect()
+}
+
+#[test]
+fn a_folder_of_photos_gives_a_line_per_photo_and_counts_the_bad_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let photos = dir.path().join("photos");
+    std::fs::create_dir(&photos).unwrap();
+    let (ball, truth) = rendered(Some([0.8, 0.05]));
+    let (centre, radius) = truth.expect("the ball is in the left camera's view");
+    write_png(&photos.join("ball.png"), &ball);
+    write_png(&photos.join("empty.png"), &rendered(None).0);
+    std::fs::write(photos.join("broken.png"), b"not an image at all").unwrap();
+    std::fs::write(photos.join("notes.txt"), b"left alone").unwrap();
+    let overlays = dir.path().join("overlays");
+    let calibration = dir.path().join("sim.toml");
+    std::fs::write(&calibration, robot_agent::builtin::SIM_CALIBRATION_TOML).unwrap();
+    let photos_arg = photos.to_str().unwrap();
+
+    for camera in [
+        vec![],
+        vec!["--calibration", calibration.to_str().unwrap()],
+        // The fisheye's pinhole part: close enough near the image centre, where the ball is.
+        vec!["--camera", "pinhole:344.7,343.7,322.2,177.9"],
+    ] {
+        let mut args = vec![
+            "--images",
+            photos_arg,
+            "--overlays",
+            overlays.to_str().unwrap(),
+        ];
+        args.extend(&camera);
+        let out = detect(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "a bad photo fails the run: {stderr}");
+        assert!(stderr.contains("1 of 3 photos"), "{stderr}");
+        let lines = lines(&out.stdout);
+        let files: Vec<&str> = lines.iter().map(|l| l["file"].as_str().unwrap()).collect();
+        assert_eq!(files, ["ball.png", "broken.png", "empty.png"], "{camera:?}");
+        let found = &lines[0];
+        assert_eq!(
+            (found["width_px"].as_u64(), found["height_px"].as_u64()),
+            (Some(640), Some(360))
+        );
+        assert!(found["time_ms"].as_f64().unwrap() > 0.0);
+        let ball = published(found);
+        assert_eq!(ball.len(), 1, "{camera:?}: {found}");
+        let (u, v) = (
+            ball[0]["u_px"].as_f64().unwrap(),
+            ball[0]["v_px"].as_f64().unwrap(),
+        );
+        assert!(
+            (u - centre[0]).hypot(v - centre[1]) < 0.3 * radius.max(4.0),
+            "{camera:?}: found at ({u}, {v}), the ball is at {centre:?}"
+        );
+        let r = ball[0]["radius_px"].as_f64().unwrap();
+        assert!(
+            (r - radius).abs() < 0.35 * radius,
+            "{camera:?}: radius {r}, truly {radius}"
+        );
+        assert!(ball[0]["probability"].as_f64().unwrap() >= 0.5);
+        assert!(ball[0]["rejection"].is_null());
+        for c in found["candidates"].as_array().unwrap() {
+            assert_eq!(c["published"] == true, c["rejection"].is_null(), "{c}");
+        }
+        assert!(lines[1]["error"].as_str().unwrap().contains("broken.png"));
+        assert!(published(&lines[2]).is_empty(), "{camera:?}: {}", lines[2]);
+        assert!(overlays.join("ball.png").is_file() && overlays.join("empty.png").is_file());
+    }
+
+    // Without the bad photo the run succeeds, writing to a file.
+    std::fs::remove_file(photos.join("broken.png")).unwrap();
+    let jsonl = dir.path().join("out.jsonl");
+    let out = detect(&["--images", photos_arg, "--out", jsonl.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stdout.is_empty());
+    assert_eq!(lines(&std::fs::read(&jsonl).unwrap()).len(), 2);
+    // The overlays may not go into the photos' folder.
+    let out = detect(&["--images", photos_arg, "--overlays", photos_arg]);
+    assert!(!out.status.success());
+}
+
+#[test]
+fn a_calibration_of_another_size_is_an_error_unless_rescaled() {
+    let dir = tempfile::tempdir().unwrap();
+    let photos = dir.path().join("photos");
+    std::fs::create_dir(&photos).unwrap();
+    let (ball, truth) = rendered(Some([0.8, 0.05]));
+    let (centre, _) = truth.unwrap();
+    write_png(&photos.join("half.png"), &halved(&ball));
+    let calibration = dir.path().join("sim.toml");
+    std::fs::write(&calibration, robot_agent::builtin::SIM_CALIBRATION_TOML).unwrap();
+    let base = [
+        "--images",
+        photos.to_str().unwrap(),
+        "--calibration",
+        calibration.to_str().unwrap(),
+    ];
+    let out = detect(&base);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("640×360") && stderr.contains("320×180") && stderr.contains("rescale"),
+        "{stderr}"
+    );
+    let out = detect(&[&base[..], &["--rescale-calibration"]].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning") && stderr.contains("scaled to 320×180"),
+        "{stderr}"
+    );
+    let lines = lines(&out.stdout);
+    let ball = published(&lines[0]);
+    assert_eq!(ball.len(), 1, "{}", lines[0]);
+    let (u, v) = (
+        ball[0]["u_px"].as_f64().unwrap(),
+        ball[0]["v_px"].as_f64().unwrap(),
+    );
+    let (cu, cv) = ((centre[0] + 0.5) / 2.0 - 0.5, (centre[1] + 0.5) / 2.0 - 0.5);
+    assert!(
+        (u - cu).hypot(v - cv) < 2.0,
+        "({u}, {v}) against ({cu}, {cv})"
+    );
+    // A malformed camera flag is refused before anything runs.
+    let out = detect(&[
+        "--images",
+        photos.to_str().unwrap(),
+        "--camera",
+        "pinhole:1,2",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("pinhole:FX,FY,CX,CY"));
+}

@@ -1,0 +1,54 @@
+//! `simulate`: a simulated match written as a match log (MCAP): every observation on its
+//! robot's key at the time it reaches the server, and the simulator's ground truth on
+//! channels of their own. `fusion-server replay` re-fuses it; `score_log` scores it.
+
+use crate::sim_args::MatchArgs;
+use crate::sim_log::{truth_schemas, write_simulated};
+use anyhow::Result;
+use clap::Parser;
+use fusion_server::matchlog::RecorderSink;
+use fusion_server::matchlog::record::RecorderConfig;
+use fusion_server::matchlog::record::remove_earlier;
+use fusion_server::shell::config::PitchFlags;
+use proto::KeySpace;
+use std::path::PathBuf;
+
+#[derive(Debug, Parser)]
+#[command(about = "Simulate a match and write it as a match log (observations and ground truth)")]
+struct Args {
+    #[command(flatten)]
+    sim: MatchArgs,
+    /// The simulated pitch (replay it with the same flags).
+    #[command(flatten)]
+    pitch: PitchFlags,
+    /// Directory for the log file.
+    #[arg(long, default_value = "out/logs")]
+    out: PathBuf,
+}
+
+pub fn main() -> Result<()> {
+    let a = Args::parse();
+    let pitch = a.pitch.over(&proto::Pitch::default())?;
+    let run = a
+        .sim
+        .simulate(&pitch, a.sim.start_or(sim::SimConfig::default().start))?;
+    let mut cfg = RecorderConfig::new(&a.out);
+    cfg.file_prefix = format!("sim-{}-{}", a.sim.scenario, a.sim.seed);
+    // The same scenario and seed make the same file: replace an earlier one.
+    remove_earlier(&a.out, &cfg.file_prefix)?;
+    let mut sink = RecorderSink::with_schemas(cfg, run.start, truth_schemas())?;
+    let n = write_simulated(&run, &KeySpace::default(), &mut sink)?;
+    let summary = sink.finish()?;
+    for f in &summary.files {
+        println!("{}", f.display());
+    }
+    eprintln!(
+        "{} s of `{}` (seed {}): {} observations from {} robots, {n} messages",
+        run.duration_s,
+        run.scenario,
+        run.seed,
+        run.deliveries.len(),
+        run.observer_ids().len()
+    );
+    Ok(())
+}

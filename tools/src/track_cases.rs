@@ -1,0 +1,258 @@
+//! Regression tracks of situations the simulator's scenarios do not produce, for
+//! `evaluate --tracks` (`sim_track --case NAME`):
+//!
+//! - `relocations`: a ball kicked across a 9 m × 6 m walled pitch, left to stop, then
+//!   picked up and put down elsewhere (no samples while it is carried), and kicked again,
+//!   ten times. After each kick it slides at 3 m/s² until its speed falls to 0.64 of the
+//!   kick's, then rolls at 0.3 m/s² (the two-phase model of the leading small-size trackers);
+//!   walls return 0.6 of the normal speed and 0.9 of the tangential.
+//! - `puck`: a light, nearly frictionless puck on a 2 m × 1 m walled table (0.05 m/s²,
+//!   restitution 0.85, no tangential loss), struck every 2.5 s at 2–4 m/s: many bounces a
+//!   second.
+//!
+//! Both are made here, from physics written here: they are *synthetic*, never to be taken
+//! for recordings. They exercise the evaluation on motion the simulator's scenarios lack
+//! (relocations, long bounce sequences); only real recordings say how the core does on a
+//! real floor.
+
+use crate::tracks::TrackSample;
+use sim::rng::Rng;
+
+/// The cases, by name.
+pub const CASES: [&str; 2] = ["relocations", "puck"];
+
+/// One case's track, its pitch (`LxW`, for `--pitch`) and its `# source:` line.
+#[derive(Debug, Clone)]
+pub struct Case {
+    pub samples: Vec<TrackSample>,
+    pub pitch: &'static str,
+    pub source: String,
+}
+
+struct Physics {
+    half: [f64; 2],
+    slide_mps2: f64,
+    roll_mps2: f64,
+    /// Sliding ends at this share of the kick's speed.
+    slide_until: f64,
+    restitution: f64,
+    tangential: f64,
+}
+
+struct Ball {
+    p: [f64; 2],
+    v: [f64; 2],
+    kick_speed: f64,
+}
+
+impl Physics {
+    /// Advances by `dt` (small): friction, then walls.
+    fn step(&self, b: &mut Ball, dt: f64) {
+        let speed = b.v[0].hypot(b.v[1]);
+        if speed > 0.0 {
+            let a = if speed > self.slide_until * b.kick_speed {
+                self.slide_mps2
+            } else {
+                self.roll_mps2
+            };
+            let k = (speed - a * dt).max(0.0) / speed;
+            b.v = [b.v[0] * k, b.v[1] * k];
+        }
+        for i in 0..2 {
+            b.p[i] += b.v[i] * dt;
+            if b.p[i].abs() > self.half[i] {
+                b.p[i] = b.p[i].signum() * (2.0 * self.half[i] - b.p[i].abs());
+                b.v[i] *= -self.restitution;
+                let j = 1 - i;
+                b.v[j] *= self.tangential;
+            }
+        }
+    }
+
+    fn kick(&self, b: &mut Ball, speed: f64, heading: f64) {
+        b.v = [speed * heading.cos(), speed * heading.sin()];
+        b.kick_speed = speed;
+    }
+}
+
+const STEP_S: f64 = 0.001;
+
+/// The named case, seeded.
+pub fn case(name: &str, seed: u64) -> Option<Case> {
+    let mut rng = Rng::new(seed);
+    match name {
+        "relocations" => Some(relocations(&mut rng, seed)),
+        "puck" => Some(puck(&mut rng, seed)),
+        _ => None,
+    }
+}
+
+fn relocations(rng: &mut Rng, seed: u64) -> Case {
+    let (len, wid, r) = (9.0, 6.0, 0.04);
+    let ph = Physics {
+        half: [len / 2.0 - r, wid / 2.0 - r],
+        slide_mps2: 3.0,
+        roll_mps2: 0.3,
+        slide_until: 0.64,
+        restitution: 0.6,
+        tangential: 0.9,
+    };
+    let rate_s = 1.0 / 100.0;
+    let mut samples = Vec::new();
+    let (mut t, mut next_sample) = (0.0, 0.0);
+    let spot = |rng: &mut Rng| [rng.range(-3.5, 3.5), rng.range(-2.3, 2.3)];
+    let mut b = Ball {
+        p: spot(rng),
+        v: [0.0, 0.0],
+        kick_speed: 0.0,
+    };
+    for kick in 0..10 {
+        // At rest for a moment, then kicked.
+        let rest_s = rng.range(0.5, 1.0);
+        let speed = rng.range(1.5, 4.0);
+        let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+        let mut clock = 0.0;
+        let mut kicked = false;
+        loop {
+            if !kicked && clock >= rest_s {
+                ph.kick(&mut b, speed, heading);
+                kicked = true;
+            }
+            if t >= next_sample - 1e-9 {
+                samples.push(TrackSample {
+                    t_s: t,
+                    position_m: b.p,
+                });
+                next_sample += rate_s;
+            }
+            ph.step(&mut b, STEP_S);
+            t += STEP_S;
+            clock += STEP_S;
+            if kicked && b.v == [0.0, 0.0] && clock > rest_s + 1.0 {
+                break;
+            }
+        }
+        if kick < 9 {
+            // Picked up and carried for 1–2 s, unseen, then put down at least 2 m away.
+            t += rng.range(1.0, 2.0);
+            next_sample = t;
+            let from = b.p;
+            b.p = loop {
+                let p = spot(rng);
+                if (p[0] - from[0]).hypot(p[1] - from[1]) > 2.0 {
+                    break p;
+                }
+            };
+        }
+    }
+    Case {
+        samples,
+        pitch: "9x6",
+        source: format!(
+            "SYNTHETIC, not a real recording: ten kicks on a 9 m x 6 m walled pitch, the ball \
+             picked up and put down 2 m or more away between them; slide 3 m/s2 to 0.64 of the \
+             kick speed then roll 0.3 m/s2, walls 0.6 normal and 0.9 tangential; 100 Hz; \
+             written by `cargo run --release -p tools --bin sim_track -- --case relocations \
+             --seed {seed}`"
+        ),
+    }
+}
+
+fn puck(rng: &mut Rng, seed: u64) -> Case {
+    let (len, wid, r) = (2.0, 1.0, 0.03);
+    let ph = Physics {
+        half: [len / 2.0 - r, wid / 2.0 - r],
+        slide_mps2: 0.05,
+        roll_mps2: 0.05,
+        slide_until: 0.0,
+        restitution: 0.85,
+        tangential: 1.0,
+    };
+    let rate_s = 1.0 / 120.0;
+    let mut samples = Vec::new();
+    let mut b = Ball {
+        p: [0.0, 0.0],
+        v: [0.0, 0.0],
+        kick_speed: 0.0,
+    };
+    let (mut t, mut next_sample, mut next_strike) = (0.0, 0.0, 0.2);
+    while t < 30.0 {
+        if t >= next_strike {
+            let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+            ph.kick(&mut b, rng.range(2.0, 4.0), heading);
+            next_strike += 2.5;
+        }
+        if t >= next_sample - 1e-9 {
+            samples.push(TrackSample {
+                t_s: t,
+                position_m: b.p,
+            });
+            next_sample += rate_s;
+        }
+        ph.step(&mut b, STEP_S);
+        t += STEP_S;
+    }
+    Case {
+        samples,
+        pitch: "2x1",
+        source: format!(
+            "SYNTHETIC, not a real recording: a puck on a 2 m x 1 m walled table, 0.05 m/s2, \
+             restitution 0.85, struck every 2.5 s at 2-4 m/s; 120 Hz, 30 s; written by \
+             `cargo run --release -p tools --bin sim_track -- --case puck --seed {seed}`"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_case_stays_on_its_pitch_and_is_seeded() {
+        for name in CASES {
+            let c = case(name, 3).expect("a case");
+            let (l, w) = c.pitch.split_once('x').expect("LxW");
+            let (l, w): (f64, f64) = (l.parse().expect("l"), w.parse().expect("w"));
+            assert!(c.samples.len() > 1000, "{name}");
+            assert!(c.samples.windows(2).all(|s| s[1].t_s > s[0].t_s), "{name}");
+            assert!(
+                c.samples
+                    .iter()
+                    .all(|s| s.position_m[0].abs() < l / 2.0 && s.position_m[1].abs() < w / 2.0),
+                "{name}"
+            );
+            assert!(c.source.starts_with("SYNTHETIC"));
+            assert_eq!(
+                case(name, 3).map(|c| c.samples.len()),
+                Some(c.samples.len())
+            );
+        }
+        assert!(case("nope", 1).is_none());
+    }
+
+    #[test]
+    fn the_relocations_case_moves_the_ball_nine_times_and_the_puck_bounces_often() {
+        let gaps = |c: &Case| {
+            c.samples
+                .windows(2)
+                .filter(|s| s[1].t_s - s[0].t_s > 0.5)
+                .count()
+        };
+        let r = case("relocations", 1).expect("relocations");
+        assert_eq!(gaps(&r), 9);
+        let p = case("puck", 1).expect("puck");
+        let reversals = p
+            .samples
+            .windows(3)
+            .filter(|s| {
+                let d0 = s[1].position_m[0] - s[0].position_m[0];
+                let d1 = s[2].position_m[0] - s[1].position_m[0];
+                d0 * d1 < 0.0
+            })
+            .count();
+        assert!(
+            reversals > 20,
+            "{reversals} bounces off the short walls in 30 s"
+        );
+    }
+}
