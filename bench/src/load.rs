@@ -6,8 +6,8 @@
 
 use crate::load_report::{LoadReport, Metrics, proc_cpu_s, proc_status_kb};
 use anyhow::{Context, Result};
-use fusion_server::shell::live::{Clock, SystemClock};
-use fusion_server::shell::net::{NetConfig, free_loopback_port};
+use fusion_server::{Clock, SystemClock};
+use proto::net::{NetConfig, free_loopback_port};
 use proto::{Camera, KeySpace, Observation, Pose2, Stamp};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::Path;
@@ -220,13 +220,13 @@ pub struct Keys {
 impl Keys {
     /// An authority, the server's folder and one folder per robot id.
     pub fn issue(robots: Vec<String>) -> Result<Keys> {
-        use fusion_server::security::keys::{Authority, Validity};
-        use fusion_server::security::{robot_common_name, server_common_name};
+        use fusion_server::{Authority, Validity};
+        use fusion_server::{robot_common_name, server_common_name};
         let dir = std::env::temp_dir().join(format!("rf-load-keys-{}", std::process::id()));
         let validity = Validity::starting(jiff::Timestamp::now(), 2)?;
         let ca = Authority::new("load test authority", validity)?;
-        let write = |sub: &Path, node: &fusion_server::security::keys::Issued| {
-            fusion_server::security::node_dir::write(sub, &ca.issued.cert_pem, node)
+        let write = |sub: &Path, node: &fusion_server::Issued| {
+            fusion_server::write_node_dir(sub, &ca.issued.cert_pem, node)
         };
         let keys = Keys { dir, robots };
         let hosts = ["127.0.0.1".to_string()];

@@ -2,7 +2,7 @@
 //! arrival order and asked for their estimate at the same evaluation ticks.
 
 use crate::baseline::SeedBaseline;
-use fusion_server::estimator::FusionConfig;
+use fusion_server::FusionConfig;
 use proto::Stamp;
 use sim::score::{HORIZONS_S, TickRecord};
 use sim::{Delivery, SimRun};

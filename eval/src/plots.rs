@@ -4,8 +4,8 @@
 use crate::methods::{Method, fusion_config};
 use crate::plot::{Chart, Marker, PALETTE, RectOutline, Series, Style, write_png};
 use crate::scenarios::{RunResult, is_team};
-use fusion_server::estimator::Fusion;
-use fusion_server::estimator::motion::{Bounds, fly};
+use fusion_server::Fusion;
+use fusion_server::{Bounds, fly};
 use sim::score::{HORIZONS_S, Samples, quantile};
 use sim::{BallEvent, SimRun};
 use std::path::Path;

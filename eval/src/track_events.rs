@@ -12,7 +12,7 @@
 //! - A push: the smoothed speed rises by more than [`PUSH_SPEED_GAIN_MPS`] over what it was
 //!   in the preceding [`PUSH_LOOKBACK_S`] (friction and walls only ever slow a ball down).
 
-use fusion_server::estimator::Bounds;
+use fusion_server::Bounds;
 use proto::WallSide;
 use serde::Serialize;
 use tools::tracks::Track;

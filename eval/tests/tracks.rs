@@ -2,7 +2,7 @@
 //! millimetres from the pitch's corner with times in milliseconds, is scored by the binary;
 //! the floors are loose (the core clearly meets them), so a regression fails here.
 
-use fusion_server::estimator::Bounds;
+use fusion_server::Bounds;
 use proto::Pitch;
 use serde_json::Value;
 use std::path::Path;

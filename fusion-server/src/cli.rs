@@ -1,10 +1,10 @@
 //! Command-line interface: subcommands and the flags they share.
 
+use crate::clock::SystemClock;
 use crate::matchlog::replay::TimeArg;
 use crate::shell::args::{
     ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
 };
-use crate::shell::live::SystemClock;
 use crate::shell::serve;
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};

@@ -16,8 +16,8 @@ mod admission;
 mod clock_offset;
 mod recent;
 pub use admission::{AdmissionConfig, SWEEP_EVERY_S, TokenBucket};
-pub use clock_offset::{ClockCheck, ClockJump, OFFSET_WINDOW, OffsetWindow, common_floor_s};
-pub use recent::{RECENT_OBS_MAX, RecentObs, RecentObservations};
+pub use clock_offset::{ClockCheck, ClockJump, OffsetWindow, common_floor_s};
+pub use recent::{RecentObs, RecentObservations};
 
 /// Why an inbound message was not used.
 #[derive(Debug, Error)]

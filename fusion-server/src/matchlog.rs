@@ -1,13 +1,33 @@
 //! Match logs: MCAP files Foxglove opens. [`record`] writes them on a background thread
 //! (rotating, crash-safe chunks), [`McapLog`] is the live server's log and [`RecorderSink`]
 //! an offline tool's; [`read`] reads them back, including logs cut short by a crash;
-//! [`replay`] re-fuses them offline and [`replay_live`] plays them as if live, under the
-//! control of the coach's page.
+//! [`replay`] re-fuses them offline (the shell plays them as if live).
 
 pub mod read;
 pub mod record;
 pub mod replay;
-pub mod replay_live;
 mod writer;
 
-pub use writer::{McapLog, RecorderSink, schemas};
+pub use writer::{McapLog, RecorderSink};
+
+use proto::Stamp;
+use std::fmt::Debug;
+
+/// What a match log is told (the recorder maps kinds to channels and schemas).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LogKind {
+    Observation,
+    Status,
+    BallState,
+}
+
+/// A match log that never blocks the caller.
+pub trait MatchLog: Send + Sync + Debug {
+    fn log(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]);
+    /// Records written and records dropped so far.
+    fn counts(&self) -> (u64, u64);
+    /// Payload bytes waiting to be written.
+    fn queued_bytes(&self) -> u64 {
+        0
+    }
+}

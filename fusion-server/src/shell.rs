@@ -12,5 +12,6 @@ pub mod intake;
 pub mod live;
 pub mod metrics;
 pub mod net;
+pub mod replay_live;
 pub mod serve;
 pub mod standby;

@@ -6,9 +6,9 @@
 #[path = "hardening/server.rs"]
 mod server;
 
-use fusion_server::matchlog::McapLog;
-use fusion_server::matchlog::record::RecorderConfig;
-use fusion_server::shell::serve::ServeConfig;
+use fusion_server::McapLog;
+use fusion_server::RecorderConfig;
+use fusion_server::ServeConfig;
 use server::{TestServer, eventually, now, obs, z};
 use std::sync::Arc;
 use std::time::Duration;
@@ -55,7 +55,7 @@ fn status(robot: &str) -> proto::RobotStatus {
 async fn oversized_inputs_are_refused_counted_and_not_recorded() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let log = Arc::new(McapLog::start(RecorderConfig::new(dir.path()), now())?);
-    let as_log: Arc<dyn fusion_server::shell::live::MatchLog> = log.clone();
+    let as_log: Arc<dyn fusion_server::MatchLog> = log.clone();
     let s = TestServer::start_logged("h-size", ServeConfig::default(), Some(as_log)).await?;
     s.until_accepted("miro1").await?;
 
@@ -99,7 +99,7 @@ async fn oversized_inputs_are_refused_counted_and_not_recorded() -> anyhow::Resu
     .await;
 
     // Queries: an over-long parameter text, over HTTP and over Zenoh.
-    let long = "x".repeat(fusion_server::query::MAX_QUERY_BYTES);
+    let long = "x".repeat(fusion_server::MAX_QUERY_BYTES);
     let (code, body) = s.get(&format!("/api/predict?t=1&pad={long}")).await?;
     assert_eq!(code, 414, "{body}");
     let replies = s
@@ -122,7 +122,7 @@ async fn oversized_inputs_are_refused_counted_and_not_recorded() -> anyhow::Resu
     assert!(skipped >= 4.0, "{skipped}");
     s.stop().await?;
     let summary = log.finish()?.expect("a summary");
-    let read = fusion_server::matchlog::read::read_logs(&summary.files)?;
+    let read = fusion_server::read_logs(&summary.files)?;
     let inputs: Vec<_> = read
         .messages
         .iter()
@@ -135,7 +135,7 @@ async fn oversized_inputs_are_refused_counted_and_not_recorded() -> anyhow::Resu
     Ok(())
 }
 
-fn with_admission(a: fusion_server::engine::AdmissionConfig) -> ServeConfig {
+fn with_admission(a: fusion_server::AdmissionConfig) -> ServeConfig {
     let mut cfg = ServeConfig::default();
     cfg.engine.admission = a;
     cfg
@@ -145,7 +145,7 @@ fn with_admission(a: fusion_server::engine::AdmissionConfig) -> ServeConfig {
 /// refused only until they have been quiet for the expiry time (1 s here).
 #[tokio::test(flavor = "multi_thread")]
 async fn made_up_tokens_hold_the_robot_table_only_until_they_expire() -> anyhow::Result<()> {
-    use fusion_server::engine::{AdmissionConfig, MAX_ROBOTS};
+    use fusion_server::{AdmissionConfig, MAX_ROBOTS};
     let s = TestServer::start(
         "h-table",
         with_admission(AdmissionConfig {
@@ -182,7 +182,7 @@ async fn made_up_tokens_hold_the_robot_table_only_until_they_expire() -> anyhow:
 /// observations keep being accepted.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_flooding_robot_is_rate_limited() -> anyhow::Result<()> {
-    use fusion_server::engine::AdmissionConfig;
+    use fusion_server::AdmissionConfig;
     let s = TestServer::start(
         "h-rate",
         with_admission(AdmissionConfig {
@@ -232,7 +232,7 @@ async fn a_flooding_robot_is_rate_limited() -> anyhow::Result<()> {
     s.stop().await
 }
 
-fn with_http(h: fusion_server::shell::http::guard::HttpLimits) -> ServeConfig {
+fn with_http(h: fusion_server::HttpLimits) -> ServeConfig {
     ServeConfig {
         http_limits: h,
         ..ServeConfig::default()
@@ -257,7 +257,7 @@ async fn closed_by_server(c: &mut tokio::net::TcpStream, within: Duration) -> bo
 /// deadline, idle ones by the idle deadline; the page is still served meanwhile.
 #[tokio::test(flavor = "multi_thread")]
 async fn slow_and_idle_http_clients_are_cut_off() -> anyhow::Result<()> {
-    use fusion_server::shell::http::guard::HttpLimits;
+    use fusion_server::HttpLimits;
     use tokio::io::AsyncWriteExt;
     let s = TestServer::start(
         "h-slow",
@@ -313,7 +313,7 @@ async fn slow_and_idle_http_clients_are_cut_off() -> anyhow::Result<()> {
 /// close, the server answers again.
 #[tokio::test(flavor = "multi_thread")]
 async fn connections_beyond_the_cap_are_closed_at_once() -> anyhow::Result<()> {
-    use fusion_server::shell::http::guard::HttpLimits;
+    use fusion_server::HttpLimits;
     let s = TestServer::start(
         "h-cap",
         with_http(HttpLimits {
@@ -347,7 +347,7 @@ async fn connections_beyond_the_cap_are_closed_at_once() -> anyhow::Result<()> {
 /// instead of holding an ever larger send buffer.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
-    use fusion_server::shell::http::guard::HttpLimits;
+    use fusion_server::HttpLimits;
     let s = TestServer::start(
         "h-ws",
         with_http(HttpLimits {
@@ -448,8 +448,8 @@ async fn a_robot_clock_off_by_200_ms_is_seen() -> anyhow::Result<()> {
 /// error; one with another id joins.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_duplicate_server_id_is_refused() -> anyhow::Result<()> {
-    use fusion_server::shell::live::SystemClock;
-    use fusion_server::shell::net::{NetConfig, free_loopback_port};
+    use fusion_server::SystemClock;
+    use proto::net::{NetConfig, free_loopback_port};
     let first = TestServer::start("h-dup", ServeConfig::default()).await?;
     let run = |id: &str| {
         let net = NetConfig {
@@ -462,12 +462,12 @@ async fn a_duplicate_server_id_is_refused() -> anyhow::Result<()> {
             net,
             ..ServeConfig::default()
         };
-        let live = fusion_server::shell::serve::shared(&cfg, Arc::new(SystemClock), None)?;
+        let live = fusion_server::shared(&cfg, Arc::new(SystemClock), None)?;
         anyhow::Ok((cfg, live))
     };
     let (cfg, live) = run("h-dup")?;
     let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
-    let err = fusion_server::shell::serve::serve(cfg, live, http, std::future::pending())
+    let err = fusion_server::serve(cfg, live, http, std::future::pending())
         .await
         .expect_err("a second h-dup refused");
     assert!(
@@ -478,14 +478,9 @@ async fn a_duplicate_server_id_is_refused() -> anyhow::Result<()> {
     let (cfg, live) = run("h-other")?;
     let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let (stop, mut stop_rx) = tokio::sync::watch::channel(false);
-    let other = tokio::spawn(fusion_server::shell::serve::serve(
-        cfg,
-        live,
-        http,
-        async move {
-            let _ = stop_rx.wait_for(|s| *s).await;
-        },
-    ));
+    let other = tokio::spawn(fusion_server::serve(cfg, live, http, async move {
+        let _ = stop_rx.wait_for(|s| *s).await;
+    }));
     tokio::time::sleep(Duration::from_millis(300)).await;
     assert!(!other.is_finished(), "another id runs beside it");
     let _ = stop.send(true);
@@ -497,7 +492,7 @@ async fn a_duplicate_server_id_is_refused() -> anyhow::Result<()> {
 /// none of it becomes `too_late` while the fusion works through it.
 #[tokio::test(flavor = "multi_thread")]
 async fn a_burst_of_valid_observations_is_not_made_late() -> anyhow::Result<()> {
-    use fusion_server::engine::AdmissionConfig;
+    use fusion_server::AdmissionConfig;
     let s = TestServer::start(
         "h-burst",
         with_admission(AdmissionConfig {

@@ -4,9 +4,9 @@
 
 mod support;
 
-use fusion_server::matchlog::RecorderSink;
-use fusion_server::matchlog::record::RecorderConfig;
-use fusion_server::matchlog::replay::ReplaySink;
+use fusion_server::RecorderConfig;
+use fusion_server::RecorderSink;
+use fusion_server::ReplaySink;
 use proto::test_support::{isotropic, observation};
 use proto::{Observation, Stamp};
 use std::path::{Path, PathBuf};

@@ -13,7 +13,7 @@
 
 mod support;
 
-use fusion_server::shell::live::{Clock, SystemClock};
+use fusion_server::{Clock, SystemClock};
 use proto::net::{NetConfig, TlsFiles, free_loopback_port};
 use std::path::Path;
 use std::process::Command;
@@ -46,6 +46,13 @@ fn metric(addr: &str, name: &str) -> f64 {
     body.lines()
         .find_map(|l| l.strip_prefix(name)?.strip_prefix(' ')?.parse().ok())
         .unwrap_or_else(|| panic!("no {name} in /metrics"))
+}
+
+/// Whether the server's `/metrics` has a row for `robot` (it has accepted one of its
+/// observations).
+fn heard_from(addr: &str, robot: &str) -> bool {
+    let (code, body) = http_get(addr, "/metrics").expect("GET /metrics");
+    code == 200 && body.contains(&format!("rf_robot_obs_rate_hz{{robot=\"{robot}\"}}"))
 }
 
 /// A session joining at `endpoint` as `mode` (peer, or client of a router).
@@ -106,19 +113,28 @@ async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Pat
         .await
         .expect("token");
     let own = publisher(&honest, "rf/robots/miro1/obs").await;
+    let other_own = publisher(&genuine_other, "rf/robots/miro2/obs").await;
 
-    // The honest robot's observations until the server's ball comes back to it.
+    // Both genuine robots' observations until the server's ball comes back to the honest
+    // one and the server has heard miro2 too: on a loaded machine a TLS link can come up
+    // seconds after its session opened.
     let (mut honest_sent, mut seq) = (0u64, 0u64);
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
-    while states.lock().map(|v| v.is_empty()).unwrap_or(true) {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(45);
+    let mut other_seq = 1_000u64;
+    loop {
+        let ball_back = states.lock().map(|v| !v.is_empty()).unwrap_or(false);
+        if ball_back && heard_from(addr, "miro2") {
+            break;
+        }
         assert!(
             tokio::time::Instant::now() < deadline,
-            "no ball state reached the honest robot ({} of {honest_sent} observations reached \
-             the server)",
+            "the links did not come up: ball state back to miro1: {ball_back}; {} of \
+             {honest_sent} observations reached the server",
             metric(addr, "rf_inputs_received_total")
         );
         put(&own, obs("miro1", seq, HONEST)).await;
-        (honest_sent, seq) = (honest_sent + 1, seq + 1);
+        put(&other_own, obs("miro2", other_seq, HONEST)).await;
+        (honest_sent, seq, other_seq) = (honest_sent + 1, seq + 1, other_seq + 1);
         tokio::time::sleep(Duration::from_millis(30)).await;
     }
 
@@ -158,7 +174,7 @@ async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Pat
             // miro2 may still speak for itself.
             let mine = publisher(s, "rf/robots/miro2/obs").await;
             for k in 0..20 {
-                put(&mine, obs("miro2", k, HONEST)).await;
+                put(&mine, obs("miro2", other_seq + k, HONEST)).await;
                 legit_other += 1;
             }
         }
@@ -197,9 +213,18 @@ async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Pat
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     let expected = (honest_sent + legit_other) as f64;
-    wait_for("every honest observation", Duration::from_secs(15), || {
-        (metric(addr, "rf_inputs_received_total") - before >= expected).then_some(())
-    });
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    loop {
+        let got = metric(addr, "rf_inputs_received_total") - before;
+        if got >= expected {
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "timed out waiting for every honest observation: {got} of {expected} arrived"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
     tokio::time::sleep(Duration::from_millis(500)).await;
     let received = metric(addr, "rf_inputs_received_total") - before;
     println!(

@@ -14,11 +14,7 @@ type Seen = Arc<Mutex<Vec<(Instant, String, BallState)>>>;
 
 #[tokio::test(flavor = "multi_thread")]
 async fn the_standby_takes_over_when_the_active_server_stops() -> anyhow::Result<()> {
-    let a = TestServer::start(
-        "pitch-a",
-        fusion_server::shell::serve::ServeConfig::default(),
-    )
-    .await?;
+    let a = TestServer::start("pitch-a", fusion_server::ServeConfig::default()).await?;
     let b = TestServer::start_joining("pitch-b", &[&a.endpoint]).await?;
     eventually("pitch-b standing by", || {
         (!b.live.is_active()).then_some(())
@@ -27,9 +23,9 @@ async fn the_standby_takes_over_when_the_active_server_stops() -> anyhow::Result
     assert!(a.live.is_active(), "pitch-a (the smaller id) publishes");
 
     // A robot and a watcher linked to both servers.
-    let both = fusion_server::shell::net::NetConfig {
+    let both = proto::net::NetConfig {
         connect: vec![a.endpoint.clone(), b.endpoint.clone()],
-        ..fusion_server::shell::net::NetConfig::default()
+        ..proto::net::NetConfig::default()
     };
     let robot = both.open().await?;
     let watcher = both.open().await?;

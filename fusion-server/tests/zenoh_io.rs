@@ -4,9 +4,9 @@
 #[path = "hardening/server.rs"]
 mod server;
 
-use fusion_server::shell::live::{Clock, SystemClock};
-use fusion_server::shell::net::{NetConfig, free_loopback_port};
-use fusion_server::shell::serve::{self, ServeConfig};
+use fusion_server::ServeConfig;
+use fusion_server::{Clock, SystemClock};
+use proto::net::{NetConfig, free_loopback_port};
 use server::{eventually, obs};
 use std::sync::Arc;
 use std::time::Duration;
@@ -20,10 +20,10 @@ async fn observations_in_states_and_answers_out() -> anyhow::Result<()> {
         state_rate_hz: 50.0,
         ..ServeConfig::default()
     };
-    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let live = fusion_server::shared(&cfg, Arc::new(SystemClock), None)?;
     let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
-    let server = tokio::spawn(serve::serve(cfg, live.clone(), http, async move {
+    let server = tokio::spawn(fusion_server::serve(cfg, live.clone(), http, async move {
         let _ = stop_rx.wait_for(|s| *s).await;
     }));
 

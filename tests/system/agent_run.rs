@@ -8,9 +8,9 @@
 
 #![allow(clippy::unwrap_used)]
 
-use fusion_server::security::acl::{self, Roster};
-use fusion_server::security::keys::{Authority, Issued, Validity};
-use fusion_server::security::{robot_common_name, server_common_name};
+use fusion_server::{Authority, Issued, Validity};
+use fusion_server::{Roster, install_acl};
+use fusion_server::{robot_common_name, server_common_name};
 use proto::net::{NetConfig, TlsFiles, free_loopback_port};
 use proto::{Observation, Pitch, RobotStatus, Validate, ValidationContext};
 use std::path::{Path, PathBuf};
@@ -272,7 +272,7 @@ fn a_calibration_of_another_shape_is_refused() {
 }
 
 fn write(dir: &Path, ca: &Authority, node: &Issued) -> PathBuf {
-    fusion_server::security::node_dir::write(dir, &ca.issued.cert_pem, node).unwrap();
+    fusion_server::write_node_dir(dir, &ca.issued.cert_pem, node).unwrap();
     dir.to_path_buf()
 }
 
@@ -289,7 +289,7 @@ async fn observations_received_over_tls(tls: &Path, server_tls: &Path) -> u64 {
         vec!["miro1".to_string(), "miro2".into()],
         vec!["main".to_string()],
     );
-    acl::install(
+    install_acl(
         &mut config,
         &Roster {
             prefix: "rf",

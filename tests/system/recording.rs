@@ -3,7 +3,7 @@
 
 mod support;
 
-use fusion_server::matchlog::read::read_log;
+use fusion_server::read_log;
 use proto::Stamp;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -157,7 +157,7 @@ fn a_simulated_log_plays_back_as_if_live() {
     );
     let files = logs_in(&dir);
     assert_eq!(files.len(), 1, "{files:?}");
-    let port = fusion_server::shell::net::free_loopback_port().expect("port");
+    let port = proto::net::free_loopback_port().expect("port");
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let file = files[0].to_string_lossy().into_owned();
     let mut player = Proc::spawn(&[

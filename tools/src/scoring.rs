@@ -2,9 +2,9 @@
 //! deliveries fed in arrival order, the estimate and its predictions taken at every tick.
 //! Shared by the evaluation and by `replay` of match logs that carry ground truth.
 
-use fusion_server::estimator::motion::{Bounds, MotionModel, fly};
-use fusion_server::estimator::predict::stop;
-use fusion_server::estimator::{Fusion, FusionConfig};
+use fusion_server::stop;
+use fusion_server::{Bounds, MotionModel, fly};
+use fusion_server::{Fusion, FusionConfig};
 use proto::Stamp;
 use sim::score::{BOUNCE_LOOKAHEAD_S, HORIZONS_S, TickRecord, tick_times_s};
 use sim::{Delivery, SimRun};

@@ -3,10 +3,10 @@
 //! server's replay knows nothing of the truth channels; it copies them through.
 
 use crate::scoring::run_fusion;
-use fusion_server::estimator::FusionConfig;
-use fusion_server::matchlog::read::LogMessage;
-use fusion_server::matchlog::record::Schema;
-use fusion_server::matchlog::replay::ReplaySink;
+use fusion_server::FusionConfig;
+use fusion_server::LogMessage;
+use fusion_server::ReplaySink;
+use fusion_server::Schema;
 use proto::{KeySpace, Stamp};
 use sim::score::{Spread, Summary, score, tick_count};
 use sim::truth_log::{TruthLogBuilder, TruthLogError};

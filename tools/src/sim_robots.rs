@@ -4,8 +4,8 @@
 //! as separate processes.
 
 use anyhow::{Context, Result};
-use fusion_server::shell::live::{Clock, SystemClock};
-use fusion_server::shell::net::NetConfig;
+use fusion_server::{Clock, SystemClock};
+use proto::net::NetConfig;
 use proto::{HeadJoints, KeySpace, Observation, Pitch, RobotStatus, Stamp};
 use sim::{RobotTrack, SimConfig, SimRun};
 use std::sync::Arc;

@@ -3,7 +3,7 @@
 //! small steps (the slow obvious reference), with its true bounce times.
 
 use crate::tracks::TrackSample;
-use fusion_server::estimator::Bounds;
+use fusion_server::Bounds;
 
 /// A roll to make: from `start_m` at `velocity_mps`, slowing by `decel_mps2`, bouncing
 /// off the walls of `bounds` with `restitution`, sampled at `rate_hz` for `duration_s`.

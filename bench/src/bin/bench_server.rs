@@ -13,9 +13,9 @@
 use anyhow::{Context, Result};
 use bench::server_bench::*;
 use clap::Parser;
-use fusion_server::shell::live::{Clock, SystemClock};
-use fusion_server::shell::net::{NetConfig, free_loopback_port};
-use fusion_server::shell::serve::{self, ServeConfig};
+use fusion_server::ServeConfig;
+use fusion_server::{Clock, SystemClock};
+use proto::net::{NetConfig, free_loopback_port};
 use proto::{Camera, Observation, Pose2, Stamp};
 use std::collections::VecDeque;
 use std::path::PathBuf;
@@ -63,14 +63,14 @@ async fn child_server(endpoint: &str) -> Result<()> {
         net: NetConfig::listening(endpoint),
         ..ServeConfig::default()
     };
-    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let live = fusion_server::shared(&cfg, Arc::new(SystemClock), None)?;
     let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let stop = async {
         let mut line = String::new();
         // The parent closes stdin to stop the child.
         let _ = tokio::task::spawn_blocking(move || std::io::stdin().read_line(&mut line)).await;
     };
-    serve::serve(cfg, live, http, stop).await
+    fusion_server::serve(cfg, live, http, stop).await
 }
 
 fn observation(robot: usize, seq: u64, stamp: Stamp, t_s: f64) -> Observation {
@@ -101,14 +101,14 @@ fn observation(robot: usize, seq: u64, stamp: Stamp, t_s: f64) -> Observation {
 async fn start_server(
     cfg: ServeConfig,
 ) -> Result<(
-    serve::Shared,
+    fusion_server::Shared,
     tokio::sync::watch::Sender<bool>,
     tokio::task::JoinHandle<Result<()>>,
 )> {
-    let live = serve::shared(&cfg, Arc::new(SystemClock), None)?;
+    let live = fusion_server::shared(&cfg, Arc::new(SystemClock), None)?;
     let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let (tx, mut rx) = tokio::sync::watch::channel(false);
-    let task = tokio::spawn(serve::serve(cfg, live.clone(), http, async move {
+    let task = tokio::spawn(fusion_server::serve(cfg, live.clone(), http, async move {
         let _ = rx.wait_for(|s| *s).await;
     }));
     Ok((live, tx, task))
@@ -189,7 +189,7 @@ async fn server_throughput(n: u64) -> Result<Throughput> {
         pubs.push(publisher(&tx, format!("rf/robots/bench{r}/obs")).await?);
     }
     tokio::time::sleep(Duration::from_millis(200)).await;
-    let handled = |live: &serve::Shared| {
+    let handled = |live: &fusion_server::Shared| {
         live.with_engine(|e| {
             e.counters().observations_accepted + e.counters().rejected.values().sum::<u64>()
         })
@@ -381,8 +381,8 @@ async fn raw_echo_latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
 
 /// A simulated match written as a log, then replayed offline, timed.
 fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
-    use fusion_server::matchlog::RecorderSink;
-    use fusion_server::matchlog::replay::{ReplayOptions, replay};
+    use fusion_server::RecorderSink;
+    use fusion_server::{ReplayOptions, replay};
     use tools::sim_log::{run_of_log, score_run, truth_schemas, write_simulated};
     let run = tools::sim_robots::simulate(
         "match",
@@ -394,7 +394,7 @@ fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
     let dir = std::env::temp_dir().join(format!("rf-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let log_of = |prefix: &str, keep: &dyn Fn(&str) -> bool| -> Result<Vec<PathBuf>> {
-        let mut cfg = fusion_server::matchlog::record::RecorderConfig::new(&dir);
+        let mut cfg = fusion_server::RecorderConfig::new(&dir);
         cfg.file_prefix = prefix.into();
         let mut sink = Filter {
             inner: RecorderSink::with_schemas(cfg, run.start, truth_schemas())?,
@@ -409,13 +409,13 @@ fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
     let opts = ReplayOptions::default();
 
     let t0 = Instant::now();
-    let log = fusion_server::matchlog::read::read_logs(&obs_files)?;
+    let log = fusion_server::read_logs(&obs_files)?;
     let read_s = t0.elapsed().as_secs_f64();
     let t0 = Instant::now();
     let fused = replay(&log.messages, &opts, &mut (), &mut |_, _| {})?;
     let fuse_s = t0.elapsed().as_secs_f64();
     // With --out: the re-fused log written too.
-    let mut out_cfg = fusion_server::matchlog::record::RecorderConfig::new(&dir);
+    let mut out_cfg = fusion_server::RecorderConfig::new(&dir);
     out_cfg.file_prefix = "replayed".into();
     let t0 = Instant::now();
     let mut out = RecorderSink::create(out_cfg, run.start)?;
@@ -424,7 +424,7 @@ fn replay_speed(match_s: f64) -> Result<ReplaySpeed> {
     let write_s = t0.elapsed().as_secs_f64();
     // The ground-truth log: every message, the run rebuilt and scored.
     let t0 = Instant::now();
-    let truth_log = fusion_server::matchlog::read::read_logs(&truth_files)?;
+    let truth_log = fusion_server::read_logs(&truth_files)?;
     replay(&truth_log.messages, &opts, &mut (), &mut |_, _| {})?;
     let scored = run_of_log(&truth_log.messages)?.map(|run| score_run(&run, &opts.engine.fusion));
     let full_s = t0.elapsed().as_secs_f64();
@@ -449,9 +449,7 @@ struct Filter<'a, S> {
     keep: &'a dyn Fn(&str) -> bool,
 }
 
-impl<S: fusion_server::matchlog::replay::ReplaySink> fusion_server::matchlog::replay::ReplaySink
-    for Filter<'_, S>
-{
+impl<S: fusion_server::ReplaySink> fusion_server::ReplaySink for Filter<'_, S> {
     fn write(&mut self, topic: &str, schema: &str, log_time: Stamp, payload: &[u8]) {
         if (self.keep)(schema) {
             self.inner.write(topic, schema, log_time, payload);

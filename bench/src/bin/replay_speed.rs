@@ -3,7 +3,7 @@
 
 use clap::Parser;
 use eval::methods::fusion_config;
-use fusion_server::estimator::Fusion;
+use fusion_server::Fusion;
 use std::time::Instant;
 
 #[derive(Debug, Parser)]

@@ -1,8 +1,8 @@
 //! Valid messages the targets start from, and the finiteness checks on what the fusion
 //! core publishes.
 
-use fusion_server::engine::{Engine, EngineConfig};
-use fusion_server::query::{BallQuery, QueryReply};
+use fusion_server::{BallQuery, QueryReply};
+use fusion_server::{Engine, EngineConfig};
 use proto::{
     BallState, Camera, CameraFootprint, HeadJoints, Observation, PixelBall, Pose2, Prediction,
     RobotStatus, StageTiming, Stamp,

@@ -5,13 +5,13 @@
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
-use fusion_server::engine::{Engine, EngineConfig};
-use fusion_server::matchlog::McapLog;
-use fusion_server::matchlog::read::read_log_from;
-use fusion_server::matchlog::record::{LogCompression, RecorderConfig};
-use fusion_server::query::{self, BallQuery, QueryReply};
-use fusion_server::shell::config::Settings;
-use fusion_server::shell::serve::ServeConfig;
+use fusion_server::McapLog;
+use fusion_server::ServeConfig;
+use fusion_server::Settings;
+use fusion_server::read_log_from;
+use fusion_server::{BallQuery, QueryReply, check_query_size, parse_query};
+use fusion_server::{Engine, EngineConfig};
+use fusion_server::{LogCompression, RecorderConfig};
 use proto::{Observation, Stamp};
 
 use super::seeds::{self, BASE};
@@ -133,14 +133,14 @@ fn query_target() -> Target {
         seeds.iter().map(|s| s.as_bytes().to_vec()).collect(),
         move |bytes| {
             let text = String::from_utf8_lossy(bytes);
-            if query::check_size(&text).is_err() {
+            if check_query_size(&text).is_err() {
                 return Verdict::Rejected;
             }
             let pairs = text
                 .split([';', '&'])
                 .filter(|p| !p.is_empty())
                 .map(|p| p.split_once('=').unwrap_or((p, "")));
-            let Ok(q) = query::parse(pairs) else {
+            let Ok(q) = parse_query(pairs) else {
                 return Verdict::Rejected;
             };
             match engine.query(&q, at) {

@@ -8,9 +8,9 @@ use crate::matchlog::record::remove_earlier;
 use crate::matchlog::replay::{
     ReplayOptions, ReplayOutputs, StatesCsv, replay, summary_json, summary_text,
 };
-use crate::matchlog::replay_live::{Deliver, PlayConfig, ReplayControl, play};
 use crate::shell::args::{bind_http, serve_config, shutdown_signal};
 use crate::shell::net::NetConfig;
+use crate::shell::replay_live::{Deliver, PlayConfig, ReplayControl, play};
 use crate::shell::serve;
 use anyhow::{Context, Result};
 use futures_util::future::BoxFuture;

@@ -20,8 +20,4 @@ pub mod tracker;
 pub mod views;
 
 pub use fusion::{Fusion, FusionConfig, FusionCounters, Ingest, ViewReport};
-pub use intercept::InterceptSolution;
 pub use motion::{Bounds, MotionModel};
-pub use surface::{Learned, SurfaceConfig, SurfaceCounts};
-pub use tracker::{ObsInput, RobotTrust, TrackerConfig};
-pub use views::{Footprint, FootprintError, ViewConfig};

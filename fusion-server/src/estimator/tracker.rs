@@ -21,7 +21,7 @@ mod acquire;
 mod config;
 mod onset;
 mod trust;
-pub use acquire::{CameraClocks, FrameClock, Hit};
+pub use acquire::{CameraClocks, Hit};
 pub use config::TrackerConfig;
 use onset::{Kick, OnsetSighting, Recent};
 pub use trust::RobotTrust;

@@ -22,7 +22,7 @@ use std::sync::Arc;
 
 use proto::Stamp;
 
-pub use handle::{RecorderHandle, RecorderStats};
+pub use handle::RecorderHandle;
 pub use recorder::McapRecorder;
 
 /// The largest payload one record may carry. Larger records are refused, so that every

@@ -19,7 +19,7 @@ mod states_csv;
 mod summary;
 mod times;
 
-pub use seek::{SNAPSHOT_EVERY_S, Seeker, feed, is_input};
+pub use seek::{Seeker, is_input};
 pub use states_csv::StatesCsv;
 pub use summary::{ReplayOutputs, summary_json, summary_text};
 use times::Schedule;

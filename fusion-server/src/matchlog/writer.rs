@@ -4,7 +4,7 @@
 use crate::matchlog::record::{
     Record, RecordError, RecordSummary, RecorderConfig, RecorderHandle, Schema,
 };
-use crate::shell::live::{LogKind, MatchLog};
+use crate::matchlog::{LogKind, MatchLog};
 use proto::Stamp;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};

@@ -3,10 +3,11 @@
 //! runs a server (this crate's binary, the tools' demo) flattens [`ServeArgs`] into its
 //! own command line.
 
+use crate::clock::{Clock, SystemClock};
+use crate::matchlog::MatchLog;
 use crate::matchlog::McapLog;
 use crate::matchlog::record::RecorderConfig;
 use crate::shell::config::{ConfigError, PitchFlags, Settings};
-use crate::shell::live::{Clock, MatchLog, SystemClock};
 use crate::shell::serve::ServeConfig;
 use anyhow::{Context, Result};
 use clap::Args;

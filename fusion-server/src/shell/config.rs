@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 mod pitch;
-pub use pitch::{PitchFlags, WallSides, check_pitch};
+pub use pitch::{PitchFlags, check_pitch};
 
 #[derive(Debug, Error)]
 pub enum ConfigError {

@@ -135,7 +135,7 @@ fn work(live: &Live, rx: &Receiver<Input>, queued_bytes: &AtomicU64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shell::live::Clock;
+    use crate::clock::Clock;
     use crate::shell::serve::{ServeConfig, shared};
     use proto::test_support::observation;
     use std::sync::atomic::AtomicU64;

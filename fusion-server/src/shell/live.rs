@@ -5,57 +5,20 @@
 //! serialised once: the wire payload and the view, which the live stream and
 //! `GET /api/state` share.
 
+use crate::clock::Clock;
 use crate::engine::{Engine, EngineEvent, RecentObs, RobotView};
-use crate::matchlog::replay_live::{ReplayControl, ReplayStatus};
+use crate::matchlog::{LogKind, MatchLog};
 use crate::query::{BallQuery, QueryError, QueryReply};
 use crate::shell::metrics::ShellStats;
+use crate::shell::replay_live::{ReplayControl, ReplayStatus};
 use proto::{BallState, KeySpace, Pitch, Stamp};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Debug;
 use std::sync::atomic::Ordering::Relaxed;
 use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 use tokio::sync::broadcast;
-
-/// Where the shell reads time. Live: the system clock. Replay: a clock running through a
-/// recorded match, possibly faster than real time, paused or moved
-/// ([`crate::matchlog::replay_live::ReplayClock`]).
-pub trait Clock: Send + Sync + Debug {
-    fn now(&self) -> Stamp;
-}
-
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SystemClock;
-
-impl Clock for SystemClock {
-    fn now(&self) -> Stamp {
-        let ns = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0);
-        Stamp(u64::try_from(ns).unwrap_or(u64::MAX))
-    }
-}
-
-/// What a match log is told (the recorder maps kinds to channels and schemas).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum LogKind {
-    Observation,
-    Status,
-    BallState,
-}
-
-/// A match log that never blocks the caller.
-pub trait MatchLog: Send + Sync + Debug {
-    fn log(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]);
-    /// Records written and records dropped so far.
-    fn counts(&self) -> (u64, u64);
-    /// Payload bytes waiting to be written.
-    fn queued_bytes(&self) -> u64 {
-        0
-    }
-}
 
 /// The body of `GET /api/state` and of each live-stream frame.
 #[derive(Debug, Clone, Serialize)]

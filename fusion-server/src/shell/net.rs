@@ -1,3 +1,3 @@
 //! Zenoh session settings: the product-wide ones from `proto::net`.
 
-pub use proto::net::{NetConfig, NetError, free_loopback_port};
+pub use proto::net::NetConfig;

@@ -1,11 +1,13 @@
 //! The live server: Zenoh subscribers, publisher, queryable and liveliness around the shared
 //! state, the HTTP server, and the loop that publishes the ball state.
 
+use crate::clock::Clock;
 use crate::engine::{Engine, EngineConfig};
+use crate::matchlog::MatchLog;
 use crate::query;
 use crate::shell::http::guard::{GuardedListener, HttpLimits};
 use crate::shell::intake::{InputKind, Intake};
-use crate::shell::live::{Clock, ControlAccess, Live, MatchLog};
+use crate::shell::live::{ControlAccess, Live};
 use crate::shell::net::NetConfig;
 use anyhow::{Context, Result};
 use axum::serve::ListenerExt;

@@ -3,9 +3,9 @@
 //! An in-process server on real loopback Zenoh (explicit port, scouting off) and a real
 //! HTTP listener on port 0, and a Zenoh client connected to it.
 
-use fusion_server::shell::live::{Clock, SystemClock};
-use fusion_server::shell::net::{NetConfig, free_loopback_port};
-use fusion_server::shell::serve::{self, ServeConfig, Shared};
+use fusion_server::{Clock, SystemClock};
+use fusion_server::{ServeConfig, Shared};
+use proto::net::{NetConfig, free_loopback_port};
 use proto::test_support::observation;
 use proto::{Observation, Stamp};
 use std::net::SocketAddr;
@@ -57,7 +57,7 @@ impl TestServer {
     pub async fn start_logged(
         id: &str,
         cfg: ServeConfig,
-        log: Option<Arc<dyn fusion_server::shell::live::MatchLog>>,
+        log: Option<Arc<dyn fusion_server::MatchLog>>,
     ) -> anyhow::Result<TestServer> {
         Self::launch(id, cfg, log, Vec::new()).await
     }
@@ -71,7 +71,7 @@ impl TestServer {
     async fn launch(
         id: &str,
         cfg: ServeConfig,
-        log: Option<Arc<dyn fusion_server::shell::live::MatchLog>>,
+        log: Option<Arc<dyn fusion_server::MatchLog>>,
         peers: Vec<String>,
     ) -> anyhow::Result<TestServer> {
         let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
@@ -83,13 +83,18 @@ impl TestServer {
             },
             ..cfg
         };
-        let live = serve::shared(&cfg, Arc::new(SystemClock), log)?;
+        let live = fusion_server::shared(&cfg, Arc::new(SystemClock), log)?;
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
         let http = listener.local_addr()?;
         let (stop, mut stop_rx) = tokio::sync::watch::channel(false);
-        let task = tokio::spawn(serve::serve(cfg, live.clone(), listener, async move {
-            let _ = stop_rx.wait_for(|s| *s).await;
-        }));
+        let task = tokio::spawn(fusion_server::serve(
+            cfg,
+            live.clone(),
+            listener,
+            async move {
+                let _ = stop_rx.wait_for(|s| *s).await;
+            },
+        ));
         let client = NetConfig::connecting(&endpoint).open().await?;
         Ok(TestServer {
             live,

@@ -92,7 +92,7 @@ pub fn start_server_on(
     security: &[&str],
     extra: &[&str],
 ) -> (Proc, String, String) {
-    let port = fusion_server::shell::net::free_loopback_port().expect("free port");
+    let port = proto::net::free_loopback_port().expect("free port");
     let endpoint = format!("{protocol}/127.0.0.1:{port}");
     let mut args = vec!["serve"];
     args.extend_from_slice(security);

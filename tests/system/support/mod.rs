@@ -98,7 +98,7 @@ impl Drop for Proc {
 /// Starts a server on a free Zenoh port and an OS-chosen HTTP port; returns it, its Zenoh
 /// endpoint and its HTTP address.
 pub fn start_server(extra: &[&str]) -> (Proc, String, String) {
-    let port = fusion_server::shell::net::free_loopback_port().expect("free port");
+    let port = proto::net::free_loopback_port().expect("free port");
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let mut args = vec![
         "serve",

@@ -8,12 +8,12 @@ mod agents;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use fusion_server::shell::args::{
+use fusion_server::{Clock, SystemClock};
+use fusion_server::{
     ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
 };
-use fusion_server::shell::live::{Clock, SystemClock};
-use fusion_server::shell::net::NetConfig;
-use fusion_server::shell::serve;
+use proto::net::NetConfig;
+
 use proto::Pitch;
 use std::sync::Arc;
 use std::time::Duration;
@@ -49,7 +49,10 @@ struct DemoArgs {
 }
 
 /// Prints a one-line summary every few seconds until `stop`.
-async fn report_progress(live: serve::Shared, mut stop: tokio::sync::watch::Receiver<bool>) {
+async fn report_progress(
+    live: fusion_server::Shared,
+    mut stop: tokio::sync::watch::Receiver<bool>,
+) {
     let mut tick = tokio::time::interval(Duration::from_secs(5));
     tick.tick().await;
     loop {
@@ -123,12 +126,17 @@ async fn run(a: DemoArgs) -> Result<()> {
     let http = bind_http(&cfg.http).await?;
     let url = format!("http://{}/", http.local_addr()?);
     let log = start_log(rec)?;
-    let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
+    let live = fusion_server::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let (server_stop_tx, mut server_stop) = tokio::sync::watch::channel(false);
-    let server = tokio::spawn(serve::serve(cfg.clone(), live.clone(), http, async move {
-        let _ = server_stop.wait_for(|s| *s).await;
-    }));
+    let server = tokio::spawn(fusion_server::serve(
+        cfg.clone(),
+        live.clone(),
+        http,
+        async move {
+            let _ = server_stop.wait_for(|s| *s).await;
+        },
+    ));
     let start = a.sim.start_or(SystemClock.now().offset_secs(1.0));
     let match_s = a.sim.duration_s.unwrap_or(MATCH_S);
     let team_size = a.sim.team_size.unwrap_or(TEAM_SIZE);

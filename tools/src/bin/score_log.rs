@@ -4,8 +4,8 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use fusion_server::matchlog::read::read_logs;
-use fusion_server::shell::args::{ServeArgs, serve_config};
+use fusion_server::read_logs;
+use fusion_server::{ServeArgs, serve_config};
 use std::path::PathBuf;
 use tools::sim_log::{run_of_log, score_run, summary_text};
 

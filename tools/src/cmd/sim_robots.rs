@@ -6,10 +6,10 @@ use crate::sim_args::MatchArgs;
 use crate::sim_robots::{self, SimRobotsConfig};
 use anyhow::Result;
 use clap::Parser;
-use fusion_server::shell::args::shutdown_signal;
-use fusion_server::shell::config::PitchFlags;
-use fusion_server::shell::live::{Clock, SystemClock};
-use fusion_server::shell::net::NetConfig;
+use fusion_server::PitchFlags;
+use fusion_server::shutdown_signal;
+use fusion_server::{Clock, SystemClock};
+use proto::net::NetConfig;
 
 #[derive(Debug, Parser)]
 #[command(about = "Simulated MiRos: publish a simulated match's observations in real time")]

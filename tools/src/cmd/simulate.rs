@@ -6,10 +6,10 @@ use crate::sim_args::MatchArgs;
 use crate::sim_log::{truth_schemas, write_simulated};
 use anyhow::Result;
 use clap::Parser;
-use fusion_server::matchlog::RecorderSink;
-use fusion_server::matchlog::record::RecorderConfig;
-use fusion_server::matchlog::record::remove_earlier;
-use fusion_server::shell::config::PitchFlags;
+use fusion_server::PitchFlags;
+use fusion_server::RecorderConfig;
+use fusion_server::RecorderSink;
+use fusion_server::remove_earlier;
 use proto::KeySpace;
 use std::path::PathBuf;
 

@@ -121,11 +121,6 @@ impl McapRecorder {
         &self.files
     }
 
-    /// Messages written so far over all files.
-    pub fn messages(&self) -> u64 {
-        self.messages
-    }
-
     /// Creates the next file, named after `name_time`, and lists it in `files`.
     fn open(&mut self, name_time: Stamp) -> Result<OpenLog, RecordError> {
         let index = u32::try_from(self.files.len()).unwrap_or(u32::MAX);

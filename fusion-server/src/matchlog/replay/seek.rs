@@ -76,6 +76,7 @@ impl Seeker {
     }
 
     /// Snapshots kept so far.
+    #[cfg(test)]
     pub fn snapshots(&self) -> usize {
         self.snapshots.len()
     }

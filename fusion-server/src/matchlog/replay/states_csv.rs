@@ -76,6 +76,7 @@ impl<W: Write> StatesCsv<W> {
     }
 
     /// Rows written.
+    #[cfg(test)]
     pub fn rows(&self) -> u64 {
         self.rows
     }

@@ -8,8 +8,8 @@
 //! cannot steer the replay through the coach's browser.
 
 use super::error;
-use crate::matchlog::replay_live::{ControlError, ReplayControl};
 use crate::shell::live::{ControlAccess, Live};
+use crate::shell::replay_live::{ControlError, ReplayControl};
 use axum::body::Bytes;
 use axum::extract::{ConnectInfo, Path, State};
 use axum::http::{HeaderMap, StatusCode, header};

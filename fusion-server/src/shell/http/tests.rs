@@ -1,6 +1,7 @@
 use super::*;
+use crate::clock::Clock;
 use crate::engine::{Engine, EngineConfig};
-use crate::shell::live::{Clock, Live};
+use crate::shell::live::Live;
 use axum::body::Body;
 use axum::http::Request;
 use http_body_util::BodyExt;

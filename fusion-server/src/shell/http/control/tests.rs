@@ -5,7 +5,7 @@ use super::*;
 use crate::engine::{Engine, EngineConfig};
 use crate::matchlog::read::LogMessage;
 use crate::matchlog::record::test_support::logged_observation;
-use crate::matchlog::replay_live::{Deliver, PlayConfig, play};
+use crate::shell::replay_live::{Deliver, PlayConfig, play};
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
 use std::time::{Duration, Instant};
@@ -350,7 +350,7 @@ async fn a_live_server_says_it_is_not_replaying() {
     let live = Arc::new(Live::new(
         Engine::new(EngineConfig::default()),
         KeySpace::default(),
-        Arc::new(crate::shell::live::SystemClock),
+        Arc::new(crate::clock::SystemClock),
         4,
         false,
         None,

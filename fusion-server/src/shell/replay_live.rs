@@ -4,10 +4,11 @@
 //! The HTTP control endpoints ([`crate::shell::http`]) drive a [`ReplayControl`]; [`play`] is the
 //! loop that hands each recorded input over when the clock reaches it.
 
+use crate::clock::Clock;
 use crate::engine::EngineConfig;
 use crate::matchlog::read::LogMessage;
 use crate::matchlog::replay::{Seeker, is_input};
-use crate::shell::live::{Clock, Live};
+use crate::shell::live::Live;
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
 use serde::Serialize;
