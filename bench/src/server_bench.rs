@@ -1,7 +1,7 @@
 //! The server benchmark's results and their markdown table (see the `bench_server` binary).
 
 use serde::Serialize;
-use sim::score::quantile;
+use sim::quantile;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Throughput {

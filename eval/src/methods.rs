@@ -4,8 +4,8 @@
 use crate::baseline::SeedBaseline;
 use fusion_server::FusionConfig;
 use proto::Stamp;
-use sim::score::{HORIZONS_S, TickRecord};
 use sim::{Delivery, SimRun};
+use sim::{HORIZONS_S, TickRecord};
 pub use tools::scoring::{drive, drive_ticks, fusion_config, model_record, run_fusion};
 
 /// A method the evaluation compares.

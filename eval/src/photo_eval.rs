@@ -13,8 +13,8 @@ use robot_agent::image::RgbImage;
 use robot_agent::labels::BallBox;
 use robot_agent::labels::eval::{LabelEval, LabelReport, SIZE_BANDS_PX, TimingMs, band_name};
 use serde::Serialize;
-use sim::photo_synth::{Background, PhotoProfile, synth_photo};
-use sim::render_scene::Frame;
+use sim::Frame;
+use sim::{Background, PhotoProfile, synth_photo};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tools::photo_set::{encode, rendered_views};
@@ -76,8 +76,8 @@ fn score(
 }
 
 fn finish(eval: &LabelEval, ms: &[f64]) -> LabelReport {
-    let timing = sim::score::quantile(ms, 0.5)
-        .zip(sim::score::quantile(ms, 0.9))
+    let timing = sim::quantile(ms, 0.5)
+        .zip(sim::quantile(ms, 0.9))
         .map(|(median, p90)| TimingMs { median, p90 });
     eval.report(timing)
 }

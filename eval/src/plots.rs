@@ -6,8 +6,8 @@ use crate::plot::{Chart, Marker, PALETTE, RectOutline, Series, Style, write_png}
 use crate::scenarios::{RunResult, is_team};
 use fusion_server::Fusion;
 use fusion_server::{Bounds, fly};
-use sim::score::{HORIZONS_S, Samples, quantile};
 use sim::{BallEvent, SimRun};
+use sim::{HORIZONS_S, Samples, quantile};
 use std::path::Path;
 
 fn method_color(m: Method) -> [u8; 3] {

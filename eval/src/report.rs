@@ -2,7 +2,7 @@
 //! markdown table, and the targets checked against them.
 
 use serde::Serialize;
-use sim::score::{Samples, Summary};
+use sim::{Samples, Summary};
 
 /// One row of the report: a method on a scenario, pooled over seeds.
 #[derive(Debug, Clone, Serialize, PartialEq)]

@@ -2,8 +2,8 @@
 
 use crate::methods::{Method, fusion_config, oracle_config, run_baseline, run_fusion};
 use crate::report::{Report, Row, check_targets};
-use sim::score::{Samples, TickRecord, rms, score, tick_count};
 use sim::{Delivery, ObsKind, SimConfig, SimRun};
+use sim::{Samples, TickRecord, rms, score, tick_count};
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 

@@ -19,7 +19,7 @@ use fusion_server::{Engine, EngineConfig};
 use proto::{BallStatus, ModelParams, Pitch, Prediction, Stamp, WallSide};
 use serde::Serialize;
 use sim::Delivery;
-use sim::score::{HORIZONS_S, TickRecord};
+use sim::{HORIZONS_S, TickRecord};
 use tools::tracks::Track;
 
 /// Spacing of the evaluation ticks (50 Hz).

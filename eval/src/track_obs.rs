@@ -7,7 +7,7 @@
 //! observers, not to a test of the filter on somebody else's track.
 
 use proto::{Camera, Observation, Pitch, Pose2, Stamp};
-use sim::rng::Rng;
+use sim::Rng;
 use sim::{Delivery, ObsKind};
 use thiserror::Error;
 use tools::tracks::Track;

@@ -8,7 +8,7 @@ use crate::track_eval::{
 use crate::track_obs::ObserverSetup;
 use proto::Pitch;
 use serde::Serialize;
-use sim::score::{HORIZONS_S, Spread, horizon_key};
+use sim::{HORIZONS_S, Spread, horizon_key};
 use std::collections::BTreeMap;
 use tools::tracks::{TimeUnit, TrackFile};
 

@@ -14,10 +14,10 @@ use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
 use robot_agent::calibration::camera::CameraModel;
 use robot_agent::detection::detect::NoClock;
 use robot_agent::image::RgbImage;
-use sim::camera_world::{CameraWorld, CameraWorldConfig};
-use sim::lens::LensModel;
-use sim::render::CameraRig;
-use sim::render_scene::BallTruth;
+use sim::BallTruth;
+use sim::CameraRig;
+use sim::LensModel;
+use sim::{CameraWorld, CameraWorldConfig};
 use sim::{Delivery, ObsKind, SimConfig, SimRun};
 use std::time::Instant;
 

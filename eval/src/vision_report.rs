@@ -7,7 +7,7 @@ use crate::report::{Report, TargetCheck};
 use crate::scenarios;
 use crate::vision::{FrameStat, LensError, SightingError, VisionResult};
 use serde::Serialize;
-use sim::score::{mean, quantile, rms};
+use sim::{mean, quantile, rms};
 use std::path::Path;
 
 pub const SECTION_BEGIN: &str = "<!-- evaluate-vision:begin -->";

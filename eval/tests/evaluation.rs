@@ -4,7 +4,7 @@
 
 use eval::report::Row;
 use eval::scenarios::{evaluate, report};
-use sim::score::Summary;
+use sim::Summary;
 
 const SEEDS: u64 = 3;
 

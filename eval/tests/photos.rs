@@ -73,7 +73,7 @@ fn held_out_and_real_photos_clear_their_floors() {
 fn a_written_photo_set_reads_back_as_labelled_photos() {
     let dir = tempfile::tempdir().expect("temp dir");
     let spec = PhotoSetSpec {
-        profile: sim::photo_synth::PhotoProfile::train(),
+        profile: sim::PhotoProfile::train(),
         count: 9,
         seed: 3,
         backgrounds: vec![data("backgrounds/train").join("home.jpg")],

@@ -30,7 +30,7 @@ fn one_rendered_seed_scenario_is_found_and_fused() {
         .methods
         .iter()
         .find(|(m, _)| m.name() == "fusion")
-        .map(|(_, s)| sim::score::Summary::of(s))
+        .map(|(_, s)| sim::Summary::of(s))
         .expect("fusion scored");
     let score = fusion.position_score.expect("position score");
     assert!(score >= 0.9, "fused position score {score:.3} < 0.9");
@@ -65,7 +65,7 @@ fn a_patterned_ball_is_found_and_its_covariance_is_honest() {
         ..sim::SimConfig::default()
     };
     let mut cfg = VisionConfig::default();
-    cfg.camera.ball_look = sim::camera_world::patterned_ball();
+    cfg.camera.ball_look = sim::patterned_ball();
     let run = sim::run_scenario("seed-1-across", 1, &sim_cfg).expect("scenario");
     let (_, frames) = perceive(&run, &cfg).expect("perceive");
     let d = Detection::of(&frames);

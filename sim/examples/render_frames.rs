@@ -2,11 +2,11 @@
 //! `cargo run -p sim --release --example render_frames`.
 
 use proto::{HeadJoints, Pose2};
-use sim::chessboard::{Chessboard, calibration_views, render_chessboard};
-use sim::head::default_head;
-use sim::lens::LensModel;
-use sim::render::{CameraRig, render_robot_cameras};
-use sim::render_scene::{BallLook, BallPattern, Frame, Lighting, RobotBody, Scene};
+use sim::LensModel;
+use sim::default_head;
+use sim::{BallLook, BallPattern, Frame, Lighting, RobotBody, Scene};
+use sim::{CameraRig, render_robot_cameras};
+use sim::{Chessboard, calibration_views, render_chessboard};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
@@ -95,7 +95,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 fn save_pair(
     dir: &Path,
     name: &str,
-    frames: &[(Frame, Option<sim::render_scene::BallTruth>); 2],
+    frames: &[(Frame, Option<sim::BallTruth>); 2],
 ) -> Result<(), Box<dyn std::error::Error>> {
     for ((frame, truth), side) in frames.iter().zip(["left", "right"]) {
         let path = dir.join(format!("{name}_{side}.png"));

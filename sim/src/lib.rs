@@ -9,38 +9,53 @@
 //! → the same run, bit for bit; there are no clock reads, time is simulated.
 //!
 //! `run_scenario` produces a whole `SimRun`; `World` steps the same world incrementally for
-//! a live caller. [`render`] draws what a MiRo's cameras see through the sim's own fisheye
-//! [`lens`] (placed by the [`head`] chain), with per-frame ball ground truth; [`chessboard`]
-//! renders calibration views with their true corners; [`photo_synth`] makes randomised
-//! labelled photos of a ball through a cheap camera ([`camera_effects`]). [`score`] scores a method's estimates against a run's ground truth;
-//! [`truth_log`] carries a run's ground truth through a match log and rebuilds the run.
+//! a live caller. [`render_robot_cameras`] draws what a MiRo's cameras see through the
+//! sim's own fisheye [`LensModel`] (placed by the [`default_head`] chain), with per-frame
+//! ball ground truth; [`calibration_views`] renders chessboard views with their true
+//! corners; [`synth_photo`] makes randomised labelled photos of a ball through a cheap
+//! camera. [`score()`] scores a method's estimates against a run's ground truth;
+//! [`TruthLogBuilder`] carries a run's ground truth through a match log and rebuilds the run.
 //! This crate never depends on `fusion-server`.
+//!
+//! This root is the crate's front door: the modules behind it are private.
+//!
+//! ```
+//! use sim::{SimConfig, run_scenario};
+//!
+//! // The seed's first scenario, two seconds of it: the same seed gives the same run.
+//! let cfg = SimConfig { duration_s: Some(2.0), ..SimConfig::default() };
+//! let run = run_scenario("seed-1-across", 7, &cfg).expect("a known scenario");
+//! assert!(!run.truth.is_empty() && !run.deliveries.is_empty());
+//! let again = run_scenario("seed-1-across", 7, &cfg).expect("a known scenario");
+//! assert_eq!(run.deliveries.len(), again.deliveries.len());
+//! assert!(run_scenario("no-such-scenario", 7, &cfg).is_err());
+//! ```
 
-pub mod camera_effects;
-pub mod camera_world;
-pub mod chessboard;
-pub mod head;
+mod camera_effects;
+mod camera_world;
+mod chessboard;
+mod head;
 mod kicks;
 mod latency;
-pub mod lens;
+mod lens;
 mod noise;
 mod observer;
-pub mod photo_shapes;
-pub mod photo_synth;
+mod photo_shapes;
+mod photo_synth;
 mod physics;
-pub mod render;
+mod render;
 mod render_objects;
-pub mod render_scene;
-pub mod rng;
+mod render_scene;
+mod rng;
 mod robots;
 mod run;
 mod scenario;
-pub mod score;
+mod score;
 mod seed_scenarios;
-pub mod truth_log;
+mod truth_log;
 mod types;
 mod vec2;
-pub mod vec3;
+mod vec3;
 mod world;
 
 #[cfg(test)]
@@ -52,8 +67,23 @@ mod scenario_tests;
 #[cfg(test)]
 mod truth_log_tests;
 
+pub use camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
+pub use chessboard::{Chessboard, calibration_views, render_chessboard};
+pub use head::default_head;
 pub use latency::LatencyProfile;
+pub use lens::LensModel;
+pub use photo_synth::{Background, PhotoProfile, SynthPhoto, synth_photo};
+pub use render::{CameraRig, render_robot_cameras};
+pub use render_scene::{BallLook, BallPattern, BallTruth, Frame, Lighting, RobotBody, Scene};
+pub use rng::Rng;
 pub use run::{SimRun, run_scenario};
+pub use score::{
+    BOUNCE_LOOKAHEAD_S, HORIZONS_S, Samples, Spread, Summary, TICK_S, TickRecord, horizon_key,
+    mean, quantile, rms, score, tick_count, tick_times_s,
+};
+pub use truth_log::{
+    TOPICS as TRUTH_TOPICS, TruthLogBuilder, TruthLogError, truth_messages, truth_schemas,
+};
 pub use types::{
     BallEvent, BallPhase, Delivery, ObsKind, RobotTrack, SimStats, TrueParams, TruthSample,
 };

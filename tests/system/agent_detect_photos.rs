@@ -18,16 +18,11 @@ const AGENT_CLI: &str = env!("CARGO_BIN_EXE_system-robot-agent");
 /// The simulated MiRo's left camera at the centre spot, looking along the pitch, with the
 /// ball `ball_m` ahead (or none): the photo and the ball's centre and radius in it.
 fn rendered(ball_m: Option<[f64; 2]>) -> (RgbImage, Option<([f64; 2], f64)>) {
-    let rig = sim::render::CameraRig::new(sim::lens::LensModel::miro());
-    let mut scene = sim::render_scene::Scene::default();
+    let rig = sim::CameraRig::new(sim::LensModel::miro());
+    let mut scene = sim::Scene::default();
     scene.ball_m = ball_m.map(|[x, y]| [x, y, scene.pitch.ball_radius_m]);
-    let [(frame, truth), _] = sim::render::render_robot_cameras(
-        &rig,
-        &scene,
-        Pose2::default(),
-        sim::head::default_head(),
-        7,
-    );
+    let [(frame, truth), _] =
+        sim::render_robot_cameras(&rig, &scene, Pose2::default(), sim::default_head(), 7);
     let truth = truth
         .filter(|t| t.in_frame && t.visible_fraction > 0.9)
         .and_then(|t| Some((t.center_px?, t.radius_px)));

@@ -6,9 +6,9 @@
 
 use robot_agent::image::RgbImage;
 use robot_agent::labels::BallBox;
-use sim::camera_world::{CameraWorld, CameraWorldConfig};
-use sim::lens::LensModel;
-use sim::render::CameraRig;
+use sim::CameraRig;
+use sim::LensModel;
+use sim::{CameraWorld, CameraWorldConfig};
 use sim::{SimConfig, run_scenario};
 use std::path::Path;
 use std::process::Command;

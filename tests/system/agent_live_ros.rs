@@ -7,9 +7,9 @@
 
 use proto::net::{NetConfig, free_loopback_port};
 use robot_agent::io::ros_msg_fixtures as fx;
-use sim::camera_world::{CameraWorld, CameraWorldConfig};
-use sim::lens::LensModel;
-use sim::render::CameraRig;
+use sim::CameraRig;
+use sim::LensModel;
+use sim::{CameraWorld, CameraWorldConfig};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 

@@ -8,7 +8,7 @@
 use crate::sim_source::Truths;
 use proto::Camera;
 use robot_agent::runtime::{FrameHook, FrameReport};
-use sim::render_scene::BallTruth;
+use sim::BallTruth;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 

@@ -11,11 +11,11 @@ use anyhow::{Context, Result, bail};
 use robot_agent::labels::BallBox;
 use robot_agent::labels::yolo::yolo_line;
 use serde::Serialize;
-use sim::camera_world::{CameraWorld, CameraWorldConfig};
-use sim::lens::LensModel;
-use sim::photo_synth::{Background, PhotoProfile, SynthPhoto, synth_photo};
-use sim::render::{CameraRig, render_robot_cameras};
-use sim::render_scene::Frame;
+use sim::Frame;
+use sim::LensModel;
+use sim::{Background, PhotoProfile, SynthPhoto, synth_photo};
+use sim::{CameraRig, render_robot_cameras};
+use sim::{CameraWorld, CameraWorldConfig};
 use std::path::{Path, PathBuf};
 
 /// What to make.

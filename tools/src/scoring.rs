@@ -6,7 +6,7 @@ use fusion_server::stop;
 use fusion_server::{Bounds, MotionModel, fly};
 use fusion_server::{Fusion, FusionConfig};
 use proto::Stamp;
-use sim::score::{BOUNCE_LOOKAHEAD_S, HORIZONS_S, TickRecord, tick_times_s};
+use sim::{BOUNCE_LOOKAHEAD_S, HORIZONS_S, TickRecord, tick_times_s};
 use sim::{Delivery, SimRun};
 
 /// The fusion's configuration for a run: defaults on the run's pitch.

@@ -8,14 +8,14 @@ use fusion_server::LogMessage;
 use fusion_server::ReplaySink;
 use fusion_server::Schema;
 use proto::{KeySpace, Stamp};
-use sim::score::{Spread, Summary, score, tick_count};
-use sim::truth_log::{TruthLogBuilder, TruthLogError};
 use sim::{Delivery, ObsKind, SimRun};
+use sim::{Spread, Summary, score, tick_count};
+use sim::{TruthLogBuilder, TruthLogError};
 use std::sync::Arc;
 
 /// The JSON Schemas of the ground-truth channels, for a match-log writer.
 pub fn truth_schemas() -> Vec<Arc<Schema>> {
-    sim::truth_log::truth_schemas()
+    sim::truth_schemas()
         .into_iter()
         .map(|(name, schema)| {
             let json = serde_json::to_vec_pretty(&schema).unwrap_or_default();
@@ -32,7 +32,7 @@ pub fn write_simulated(
     keys: &KeySpace,
     sink: &mut dyn ReplaySink,
 ) -> Result<usize, proto::KeyError> {
-    let truth = sim::truth_log::truth_messages(run);
+    let truth = sim::truth_messages(run);
     let mut out: Vec<(Stamp, String, &str, Vec<u8>)> = Vec::with_capacity(truth.len());
     for m in truth {
         out.push((m.log_time, m.topic.to_string(), m.schema_name, m.json));
@@ -55,7 +55,7 @@ pub fn run_of_log(messages: &[LogMessage]) -> Result<Option<SimRun>, TruthLogErr
     let mut truth = TruthLogBuilder::new();
     let mut arrivals = Vec::new();
     for m in messages {
-        if sim::truth_log::TOPICS.contains(&m.topic.as_str()) {
+        if sim::TRUTH_TOPICS.contains(&m.topic.as_str()) {
             truth.push(&m.topic, &m.data)?;
         } else if m.schema_name == "Observation"
             && let Ok(o) = proto::decode::<proto::Observation>(&m.data)

@@ -18,10 +18,10 @@ use robot_agent::detection::detect::NoClock;
 use robot_agent::detection::patch::{Patch, PatchConfig, extract};
 use robot_agent::detection::train::miners;
 use robot_agent::image::RgbImage;
-use sim::camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
-use sim::lens::LensModel;
-use sim::render::CameraRig;
-use sim::render_scene::BallTruth;
+use sim::BallTruth;
+use sim::CameraRig;
+use sim::LensModel;
+use sim::{CameraWorld, CameraWorldConfig, patterned_ball};
 use sim::{SimConfig, run_scenario};
 
 /// How a candidate relates to the true ball.

@@ -16,7 +16,7 @@
 //! real floor.
 
 use crate::tracks::TrackSample;
-use sim::rng::Rng;
+use sim::Rng;
 
 /// The cases, by name.
 pub const CASES: [&str; 2] = ["relocations", "puck"];

@@ -155,9 +155,9 @@ fn the_pipeline_finds_the_ball_in_a_recorded_rendered_frame() {
 /// Frames of the simulator's `seed-1-across` through miro1's cameras, with the ball's
 /// centre and radius where it is in view.
 fn rendered_frames(patterned: bool, captures: usize) -> Vec<(RgbImage, [f64; 2], f64)> {
-    use sim::camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
+    use sim::{CameraWorld, CameraWorldConfig, patterned_ball};
     let run = sim::run_scenario("seed-1-across", 1, &sim::SimConfig::default()).unwrap();
-    let rig = sim::render::CameraRig::new(sim::lens::LensModel::miro());
+    let rig = sim::CameraRig::new(sim::LensModel::miro());
     let mut cfg = CameraWorldConfig::default();
     if patterned {
         cfg.ball_look = patterned_ball();
@@ -219,7 +219,7 @@ fn a_rendered_patterned_ball_is_found_as_the_plain_one_is() {
 /// stream gives the values the agent's copy is tested against.
 #[test]
 fn the_simulators_stream_draws_what_the_agents_copy_draws() {
-    let mut r = sim::rng::Rng::stream(1, "labelled-negatives", 0);
+    let mut r = sim::Rng::stream(1, "labelled-negatives", 0);
     let got: Vec<u64> = (0..3).map(|_| r.next_u64()).collect();
     assert_eq!(
         got,

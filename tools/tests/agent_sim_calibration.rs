@@ -8,12 +8,12 @@ use robot_agent::calibration::calibrate::{Board, LensModel, calibrate_with, dete
 use robot_agent::calibration::camera::CameraModel;
 use robot_agent::calibration::gray::GrayImage;
 use robot_agent::image::RgbImage;
-use sim::chessboard::{Chessboard, calibration_views, render_chessboard};
+use sim::{Chessboard, calibration_views, render_chessboard};
 
 /// Largest and RMS distance, pixels, between where the simulator's lens and the model put
 /// the same rays, over a grid covering the whole image.
 fn lens_error_px(model: &CameraModel) -> (f64, f64) {
-    let lens = sim::lens::LensModel::miro();
+    let lens = sim::LensModel::miro();
     let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0.0);
     for v in (0..360).step_by(8).chain([359]) {
         for u in (0..640).step_by(8).chain([639]) {
@@ -32,7 +32,7 @@ fn lens_error_px(model: &CameraModel) -> (f64, f64) {
 
 #[test]
 fn rendered_boards_calibrate_the_simulated_fisheye() {
-    let lens = sim::lens::LensModel::miro();
+    let lens = sim::LensModel::miro();
     let board = Chessboard::default();
     let images: Vec<(String, GrayImage)> = calibration_views(&lens, 24, 5)
         .iter()

@@ -4,7 +4,7 @@
 use clap::Parser;
 use eval::methods::fusion_config;
 use fusion_server::Fusion;
-use sim::score::TICK_S;
+use sim::TICK_S;
 
 #[derive(Debug, Parser)]
 struct Args {

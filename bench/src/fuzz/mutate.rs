@@ -1,7 +1,7 @@
 //! Input generation: random bytes, or valid seeds changed by bit flips, byte inserts and
 //! deletes, truncation, splicing, boundary numbers and very long strings.
 
-use sim::rng::Rng;
+use sim::Rng;
 
 /// Longest input generated; longer results are cut.
 pub const MAX_INPUT_BYTES: usize = 1 << 20;

@@ -5,7 +5,7 @@ use std::panic::{self, AssertUnwindSafe};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use sim::rng::Rng;
+use sim::Rng;
 
 use super::{Target, Verdict, mutate};
 use tools::progress::Progress;

@@ -214,7 +214,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     let seeds = args.seeds.unwrap_or(5);
     let mut vcfg = VisionConfig::default();
     if args.patterned_ball {
-        vcfg.camera.ball_look = sim::camera_world::patterned_ball();
+        vcfg.camera.ball_look = sim::patterned_ball();
     }
     let started = std::time::Instant::now();
     let results = evaluate_vision(&names, seeds, &sim::SimConfig::default(), &vcfg, args.jobs)?;

@@ -1,6 +1,6 @@
 use super::*;
 use proto::PathSample;
-use sim::score::quantile;
+use sim::quantile;
 use tools::track_fixtures::Roll;
 
 fn roll_track(roll: &Roll, pitch: &Pitch) -> (Track, Vec<f64>) {

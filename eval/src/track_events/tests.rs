@@ -1,6 +1,6 @@
 use super::*;
 use proto::Pitch;
-use sim::rng::Rng;
+use sim::Rng;
 use tools::track_fixtures::Roll;
 use tools::tracks::TrackSample;
 

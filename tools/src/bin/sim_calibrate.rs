@@ -36,23 +36,18 @@ struct Args {
 
 /// Chessboard views rendered through the simulator's camera.
 fn sim_images(views: usize, seed: u64, save: Option<&Path>) -> Result<Vec<(String, GrayImage)>> {
-    let lens = sim::lens::LensModel::miro();
-    let board = sim::chessboard::Chessboard::default();
+    let lens = sim::LensModel::miro();
+    let board = sim::Chessboard::default();
     if let Some(dir) = save {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let mut out = Vec::new();
-    for (k, pose) in sim::chessboard::calibration_views(&lens, views, seed)
+    for (k, pose) in sim::calibration_views(&lens, views, seed)
         .iter()
         .enumerate()
     {
-        let (frame, _) = sim::chessboard::render_chessboard(
-            &lens,
-            &board,
-            pose,
-            2.0,
-            seed.wrapping_add(k as u64),
-        );
+        let (frame, _) =
+            sim::render_chessboard(&lens, &board, pose, 2.0, seed.wrapping_add(k as u64));
         let rgb = RgbImage::new(frame.width, frame.height, frame.rgb)?;
         let name = format!("board-{k:02}.png");
         if let Some(dir) = save {
@@ -69,7 +64,7 @@ fn sim_images(views: usize, seed: u64, save: Option<&Path>) -> Result<Vec<(Strin
 fn main() -> Result<()> {
     let args = Args::parse();
     let board = parse_board(&args.fit.board, args.fit.square)?;
-    let sim_board = sim::chessboard::Chessboard::default();
+    let sim_board = sim::Chessboard::default();
     if (board.cols, board.rows) != (sim_board.inner_cols, sim_board.inner_rows)
         || (board.square_m - sim_board.square_m).abs() > 1e-12
     {

@@ -54,7 +54,7 @@ fn image_files(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
-    let Some(profile) = sim::photo_synth::PhotoProfile::named(&args.profile) else {
+    let Some(profile) = sim::PhotoProfile::named(&args.profile) else {
         anyhow::bail!("unknown profile {:?}: use train or heldout", args.profile);
     };
     let spec = PhotoSetSpec {
