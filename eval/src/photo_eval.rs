@@ -8,10 +8,10 @@
 
 use crate::plot::{Chart, Marker, PALETTE, Series, Style, write_png};
 use anyhow::{Context, Result};
-use robot_agent::detection::detect::{CandidateClassifier, Detector, DetectorConfig, NoClock};
-use robot_agent::image::RgbImage;
+use robot_agent::RgbImage;
 use robot_agent::labels::BallBox;
 use robot_agent::labels::eval::{LabelEval, LabelReport, SIZE_BANDS_PX, TimingMs, band_name};
+use robot_agent::{CandidateClassifier, Detector, DetectorConfig, NoClock};
 use serde::Serialize;
 use sim::Frame;
 use sim::{Background, PhotoProfile, synth_photo};
@@ -92,10 +92,10 @@ pub fn evaluate_photos(
     progress: &Progress,
 ) -> Result<Vec<PhotoSetResult>> {
     let detector = Detector::new(*detector_cfg)?;
-    let background_files = robot_agent::io::image_io::image_files(&cfg.backgrounds)?;
+    let background_files = robot_agent::image_files(&cfg.backgrounds)?;
     let mut pictures = Vec::new();
     for p in &background_files {
-        pictures.push(frame_of(robot_agent::io::image_io::load_rgb(p)?));
+        pictures.push(frame_of(robot_agent::load_rgb(p)?));
     }
     let renders = rendered_views(24, cfg.seed)?;
     let profile = PhotoProfile::heldout();
@@ -116,7 +116,7 @@ pub fn evaluate_photos(
             let photo = synth_photo(&profile, background, cfg.seed, i);
             // Through the file format, so JPEG artefacts are the real codec's.
             let (bytes, _) = encode(&photo)?;
-            let image = robot_agent::io::image_io::decode_rgb(&bytes)?;
+            let image = robot_agent::decode_rgb(&bytes)?;
             let balls: Vec<BallBox> = photo
                 .balls
                 .iter()
@@ -146,10 +146,10 @@ pub fn evaluate_photos(
     }
     // Real photos with labelled balls.
     let (mut eval, mut ms) = (LabelEval::new(min_probability), Vec::new());
-    let real_files = robot_agent::io::image_io::image_files(&cfg.real_balls.join("images"))?;
+    let real_files = robot_agent::image_files(&cfg.real_balls.join("images"))?;
     progress.add_work((real_files.len() + background_files.len()) as u64);
     for p in real_files {
-        let image = robot_agent::io::image_io::load_rgb(&p)?;
+        let image = robot_agent::load_rgb(&p)?;
         let stem = p.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
         let xml_path = cfg.real_balls.join("labels").join(format!("{stem}.xml"));
         let xml = std::fs::read_to_string(&xml_path)

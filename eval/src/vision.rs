@@ -10,10 +10,10 @@
 
 use crate::scenarios::{RunResult, evaluate_run};
 use proto::{Camera, Observation};
-use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
-use robot_agent::calibration::camera::CameraModel;
-use robot_agent::detection::detect::NoClock;
-use robot_agent::image::RgbImage;
+use robot_agent::CameraModel;
+use robot_agent::NoClock;
+use robot_agent::RgbImage;
+use robot_agent::{Agent, FrameInput, PipelineConfig};
 use sim::BallTruth;
 use sim::CameraRig;
 use sim::LensModel;

@@ -24,7 +24,7 @@ fn held_out_and_real_photos_clear_their_floors() {
         backgrounds: data("backgrounds/heldout"),
         real_balls: data("real-balls"),
     };
-    let detector = robot_agent::detection::detect::DetectorConfig::default();
+    let detector = robot_agent::DetectorConfig::default();
     let classifier = robot_agent::builtin::classifier(&detector).expect("shipped classifier");
     let results = evaluate_photos(
         &cfg,
@@ -90,9 +90,8 @@ fn a_written_photo_set_reads_back_as_labelled_photos() {
     );
     let mut balls = 0;
     for i in 0..9 {
-        let image =
-            robot_agent::io::image_io::load_rgb(&dir.path().join(format!("images/{i:05}.jpg")))
-                .expect("a JPEG photo");
+        let image = robot_agent::load_rgb(&dir.path().join(format!("images/{i:05}.jpg")))
+            .expect("a JPEG photo");
         let text = std::fs::read_to_string(dir.path().join(format!("labels/{i:05}.txt"))).unwrap();
         let labels =
             robot_agent::labels::yolo::parse_yolo(&text, "t", image.width(), image.height(), &ids)

@@ -3,14 +3,12 @@
 //! - [`camera`]: camera models (pinhole intrinsics with Brown–Conrady or Kannala–Brandt
 //!   fisheye distortion): projection with its Jacobian, unprojection to rays, and a
 //!   validity check.
-//! - [`gray`]: the greyscale image of the calibration.
 //! - [`chessboard`]: chessboard inner-corner detection with sub-pixel refinement.
 //! - [`homography`]: plane-to-image homographies, Zhang's closed-form intrinsics and a
 //!   board's pose from its homography.
 //! - [`calibrate`]: camera calibration from chessboard views (Brown–Conrady or
 //!   Kannala–Brandt), refined by Levenberg–Marquardt over all parameters, with the reasons
 //!   for every view left out; saved and loaded as TOML.
-//! - [`rectify`]: local perspective views of a fisheye frame, where a ball is round.
 
 mod bundle;
 pub mod calibrate;
@@ -18,6 +16,4 @@ pub mod camera;
 pub mod chessboard;
 #[cfg(test)]
 mod fixtures;
-pub mod gray;
 pub mod homography;
-pub mod rectify;

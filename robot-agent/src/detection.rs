@@ -30,6 +30,7 @@
 //!   augmentation.
 //! - [`ballnet_train`]: training the network on a CPU, and its weights file.
 //! - [`detect`]: one frame to ball candidates through the stages above.
+//! - [`rectify`]: local perspective views of a fisheye frame, where a ball is round.
 //! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
 //!   what became of it, and the photo with the candidates drawn.
 
@@ -52,6 +53,7 @@ pub mod patch;
 #[cfg(test)]
 mod patch_fixtures;
 pub mod photo;
+pub mod rectify;
 pub mod seeded_mask;
 pub mod svm;
 mod svm_model;

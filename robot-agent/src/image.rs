@@ -4,6 +4,10 @@
 //! Both are row-major with the top-left pixel first; pixel (x, y) has x to the right and y
 //! downwards. The constructors check the buffer length, so every accessor that takes
 //! in-range coordinates can index without further checks.
+//!
+//! [`gray`] holds the greyscale image that calibration and photo decoding use.
+
+pub mod gray;
 
 use thiserror::Error;
 
@@ -170,6 +174,7 @@ impl Mask {
     }
 
     /// The empty mask of a size; fails when it cannot be allocated.
+    #[cfg(test)]
     pub fn zeros(width: u32, height: u32) -> Result<Self, ImageError> {
         let data = zeroed(width, height, buffer_len(width, height, 1))?;
         Self::new(width, height, data)
@@ -209,6 +214,7 @@ impl Mask {
     }
 
     /// Selects (`true`) or clears pixel (x, y); does nothing off the mask.
+    #[cfg(test)]
     pub fn set(&mut self, x: u32, y: u32, on: bool) {
         if x < self.width && y < self.height {
             self.data[y as usize * self.width as usize + x as usize] = u8::from(on);
@@ -216,6 +222,7 @@ impl Mask {
     }
 
     /// Number of selected pixels.
+    #[cfg(test)]
     pub fn count(&self) -> usize {
         self.data.iter().map(|&b| usize::from(b)).sum()
     }

@@ -3,37 +3,81 @@
 //! covariance.
 //!
 //! The vision modules are pure: functions over images and numbers, no clock reads, no I/O
-//! except [`io::image_io`]'s file loading. [`runtime`] is the shell around them: frame
-//! sources, the perceive loop and Zenoh; the `robot-agent` binary is a thin command line
-//! over it and [`cli`].
+//! except image file loading. The runtime is the shell around them: frame sources, the
+//! perceive loop and Zenoh ([`run_agent`]); the `robot-agent` binary is a thin command
+//! line over it ([`cli::main`]).
 //!
-//! - [`calibration`]: camera models, chessboard detection and camera calibration.
-//! - [`detection`]: one frame to ball candidates, one stage per module, and the ball
-//!   classifier's training.
-//! - [`projection`]: pixel to floor point with its covariance, and the MiRo's kinematics.
-//! - [`image`]: the RGB8 frame and binary mask buffers of the detection pipeline.
-//! - [`pipeline`]: detection, projection and world validation of one frame, at most one
-//!   ball per frame.
-//! - [`agent`]: a robot's perception state between frames: observations, status, counters.
-//! - [`builtin`]: the shipped calibration of the simulated camera and the ball classifier.
-//! - [`labels`]: labelled ball boxes (Pascal VOC and YOLO readers) and the detector scored
-//!   against them.
-//! - [`io`]: image files, and the ROS messages of a MiRo's recordings.
-//! - [`runtime`]: frame sources (image folders, MCAP recordings, live ROS over Zenoh) and
-//!   the perceive loop that publishes observations and status.
-//! - [`cli`]: flag groups and command steps shared by the `robot-agent` binary and the
-//!   simulator-driven tools.
+//! This root is the crate's front door; behind it, private modules, one per concern:
+//! calibration (camera models, chessboards, [`calibrate_with`]), detection (one frame to
+//! ball candidates, one stage per module: [`Detector`], the classifiers [`BallNet`] and
+//! [`SvmModel`]), projection (pixel to floor point with its covariance, and the MiRo's
+//! kinematics), the image buffers ([`RgbImage`], [`GrayImage`]), the pipeline of one frame
+//! and the [`Agent`] between frames, image files and ROS messages ([`ros_msg`]), and the
+//! runtime's frame sources ([`FrameSource`], [`McapSource`]). Three public modules are
+//! APIs of their own: [`builtin`] (the shipped calibration and ball classifier),
+//! [`labels`] (Pascal VOC and YOLO labels and the detector scored against them) and
+//! [`cli`] (the command line, and the flag groups and steps the simulator-driven tools
+//! share with it).
+//!
+//! ```
+//! use robot_agent::{Detector, DetectorConfig, NoClock, RgbImage};
+//!
+//! // A grey carpet with an orange ball of radius 20 px centred at (80, 60).
+//! let mut image = RgbImage::filled(160, 120, [90, 100, 90]).unwrap();
+//! for y in 0..120u32 {
+//!     for x in 0..160u32 {
+//!         if (f64::from(x) - 80.0).hypot(f64::from(y) - 60.0) <= 20.0 {
+//!             image.set_pixel(x, y, [235, 120, 25]);
+//!         }
+//!     }
+//! }
+//! let detector = Detector::new(DetectorConfig::default()).unwrap();
+//! let proposals = detector.propose(&image, None, &mut NoClock).unwrap();
+//! let nearest = proposals
+//!     .items
+//!     .iter()
+//!     .map(|p| (p.frame.center_px[0] - 80.0).hypot(p.frame.center_px[1] - 60.0))
+//!     .fold(f64::INFINITY, f64::min);
+//! assert!(nearest < 3.0, "the ball is proposed ({nearest} px off)");
+//! ```
 
-pub mod agent;
+mod agent;
 pub mod builtin;
-pub mod calibration;
+mod calibration;
 pub mod cli;
-pub mod detection;
-pub mod image;
-pub mod io;
+mod detection;
+mod image;
+mod io;
 pub mod labels;
-pub mod pipeline;
-pub mod projection;
-pub mod runtime;
+mod pipeline;
+mod projection;
+mod runtime;
 #[cfg(test)]
 mod test_fixtures;
+
+pub use agent::{Agent, FrameInput, PipelineConfig};
+pub use calibration::calibrate::{Board, Calibration, LensModel, calibrate_with, detect_views};
+pub use calibration::camera::CameraModel;
+pub use detection::ballnet::BallNet;
+pub use detection::detect::{CandidateClassifier, Detector, DetectorConfig, NoClock, StageClock};
+pub use detection::hog::HOG_LEN;
+pub use detection::patch::{Patch, PatchConfig, extract as extract_patch};
+pub use detection::svm::Model as SvmModel;
+pub use detection::train::miners as training_miners;
+pub use image::RgbImage;
+pub use image::gray::GrayImage;
+pub use io::image_io::{decode_gray, decode_rgb, encode_png, image_files, load_rgb};
+pub use io::ros_msg;
+#[cfg(any(test, feature = "test-support"))]
+pub use io::ros_msg_fixtures;
+pub use pipeline::ValidationConfig;
+pub use runtime::frames_io::{RobotState, StoredFrame};
+pub use runtime::models::{
+    ClassifierArgs, DetectorPreset, classifier as load_classifier, load_config, load_models,
+};
+pub use runtime::ros_frames::RosTopics;
+pub use runtime::source::{FrameSource, McapSource};
+pub use runtime::timer::StageTimer;
+pub use runtime::{
+    FrameHook, FrameReport, RunArgs, Source, Summary as RunSummary, run as run_agent, wall_now,
+};

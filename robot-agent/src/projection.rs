@@ -361,6 +361,7 @@ pub fn angular_radius_from_image_radius(
 /// The distance from the camera's optical centre to a ball of radius `ball_radius_m` that
 /// appears with image radius `radius_px` around `pixel` (see
 /// [`angular_radius_from_image_radius`]).
+#[cfg(test)]
 pub fn distance_from_image_radius(
     model: &CameraModel,
     pixel: [f64; 2],

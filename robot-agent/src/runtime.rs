@@ -23,7 +23,7 @@ mod run;
 pub mod source;
 pub mod timer;
 
-pub use perceive::{FrameHook, FrameReport, Summary, print_summary};
+pub use perceive::{FrameHook, FrameReport, Summary};
 pub use run::{RunArgs, Source, run};
 
 use proto::Stamp;

@@ -69,10 +69,8 @@ fn calibrate_writes_a_usable_calibration_from_photographs() {
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "{stdout}");
     assert!(stdout.contains("13 of 13 views used"), "{stdout}");
-    let c = robot_agent::calibration::calibrate::Calibration::from_toml_str(
-        &std::fs::read_to_string(&out).unwrap(),
-    )
-    .unwrap();
+    let c =
+        robot_agent::Calibration::from_toml_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert!(c.rms_px < 0.5, "{}", c.rms_px);
 }
 
@@ -86,7 +84,7 @@ fn train_fits_a_model_from_patch_folders() {
         // Shaded discs of varying size and offset against stripes of varying period.
         let r = 9.0 + f64::from(k % 5);
         let off = f64::from(k % 3) - 1.0;
-        let mut disc = robot_agent::image::RgbImage::filled(32, 32, [90, 110, 90]).unwrap();
+        let mut disc = robot_agent::RgbImage::filled(32, 32, [90, 110, 90]).unwrap();
         let mut stripes = disc.clone();
         for y in 0..32u32 {
             for x in 0..32u32 {
@@ -100,8 +98,7 @@ fn train_fits_a_model_from_patch_folders() {
                 }
             }
         }
-        let png =
-            |i: &robot_agent::image::RgbImage| robot_agent::io::image_io::encode_png(i).unwrap();
+        let png = |i: &robot_agent::RgbImage| robot_agent::encode_png(i).unwrap();
         std::fs::write(pos.join(format!("{k}.png")), png(&disc)).unwrap();
         std::fs::write(neg.join(format!("{k}.png")), png(&stripes)).unwrap();
     }
@@ -123,8 +120,6 @@ fn train_fits_a_model_from_patch_folders() {
         String::from_utf8_lossy(&run.stderr)
     );
     assert!(stdout.contains("precision"), "{stdout}");
-    let m =
-        robot_agent::detection::svm::Model::from_json(&std::fs::read_to_string(&model).unwrap())
-            .unwrap();
-    assert_eq!(m.dim(), robot_agent::detection::hog::HOG_LEN);
+    let m = robot_agent::SvmModel::from_json(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(m.dim(), robot_agent::HOG_LEN);
 }

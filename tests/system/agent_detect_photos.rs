@@ -7,7 +7,7 @@
 mod common;
 use common::halved;
 use proto::Pose2;
-use robot_agent::image::RgbImage;
+use robot_agent::RgbImage;
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -31,7 +31,7 @@ fn rendered(ball_m: Option<[f64; 2]>) -> (RgbImage, Option<([f64; 2], f64)>) {
 }
 
 fn write_png(path: &Path, image: &RgbImage) {
-    std::fs::write(path, robot_agent::io::image_io::encode_png(image).unwrap()).unwrap();
+    std::fs::write(path, robot_agent::encode_png(image).unwrap()).unwrap();
 }
 
 fn detect(args: &[&str]) -> Output {

@@ -4,7 +4,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use robot_agent::image::RgbImage;
+use robot_agent::RgbImage;
 use robot_agent::labels::BallBox;
 use sim::CameraRig;
 use sim::LensModel;
@@ -61,7 +61,7 @@ fn write_folder(dir: &Path) -> (usize, usize) {
                 }
                 let name = format!("{id}-{k:03}-{side}");
                 let image = RgbImage::new(frame.width, frame.height, frame.rgb.clone()).unwrap();
-                let png = robot_agent::io::image_io::encode_png(&image).unwrap();
+                let png = robot_agent::encode_png(&image).unwrap();
                 std::fs::write(dir.join(format!("images/{name}.png")), png).unwrap();
                 let balls: Vec<BallBox> = ball.into_iter().collect();
                 let voc = robot_agent::labels::voc::write_voc(
@@ -181,10 +181,8 @@ fn evaluate_and_train_on_a_labelled_folder() {
         &model,
     ]);
     assert!(stdout.contains("held out"), "{stdout}");
-    let m =
-        robot_agent::detection::svm::Model::from_json(&std::fs::read_to_string(&model).unwrap())
-            .unwrap();
-    assert_eq!(m.dim(), robot_agent::detection::hog::HOG_LEN);
+    let m = robot_agent::SvmModel::from_json(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(m.dim(), robot_agent::HOG_LEN);
 
     // The trained model is used through --classifier, by evaluate and detect alike.
     let json = p("own-model.json");

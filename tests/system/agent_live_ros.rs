@@ -6,7 +6,7 @@
 #![allow(clippy::unwrap_used)]
 
 use proto::net::{NetConfig, free_loopback_port};
-use robot_agent::io::ros_msg_fixtures as fx;
+use robot_agent::ros_msg_fixtures as fx;
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig};
@@ -33,9 +33,8 @@ async fn a_live_robot_over_a_zenoh_ros_bridge_feeds_the_agent() {
         truth.as_ref().is_some_and(|t| t.in_frame),
         "the ball is in view"
     );
-    let image =
-        robot_agent::image::RgbImage::new(frame.width, frame.height, frame.rgb.clone()).unwrap();
-    let png = robot_agent::io::image_io::encode_png(&image).unwrap();
+    let image = robot_agent::RgbImage::new(frame.width, frame.height, frame.rgb.clone()).unwrap();
+    let png = robot_agent::encode_png(&image).unwrap();
     let r = capture.reading;
 
     let port = free_loopback_port().unwrap();

@@ -6,7 +6,7 @@
 
 mod common;
 use common::halved;
-use robot_agent::io::image_io::{encode_png, load_rgb};
+use robot_agent::{encode_png, load_rgb};
 use std::path::Path;
 use std::process::{Command, Output};
 

@@ -84,9 +84,7 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(stdout.contains("held-out photos"), "{stdout}");
-    let net =
-        robot_agent::detection::ballnet::BallNet::from_safetensors(&std::fs::read(&model).unwrap())
-            .unwrap();
+    let net = robot_agent::BallNet::from_safetensors(&std::fs::read(&model).unwrap()).unwrap();
     assert!(net.metadata()["held_out"].contains("recall"));
     assert!(net.metadata()["command"].contains("--hold-out 20240222"));
     let png = std::fs::read(&plot).unwrap();
@@ -132,7 +130,7 @@ fn calibrate_colour_writes_a_window_evaluate_takes() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let config = robot_agent::runtime::models::load_config(Some(&settings)).unwrap();
+    let config = robot_agent::load_config(Some(&settings)).unwrap();
     // The balls of these photos are yellow to cream: the window sits between orange and
     // green, and keeps the green carpet out.
     let t = config.detector.thresholds;

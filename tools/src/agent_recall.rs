@@ -7,7 +7,7 @@
 
 use crate::sim_source::Truths;
 use proto::Camera;
-use robot_agent::runtime::{FrameHook, FrameReport};
+use robot_agent::{FrameHook, FrameReport};
 use sim::BallTruth;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};

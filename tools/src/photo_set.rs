@@ -84,7 +84,7 @@ pub fn rendered_views(n: usize, seed: u64) -> Result<Vec<Frame>> {
     Ok(out)
 }
 
-fn frame_of(image: robot_agent::image::RgbImage) -> Frame {
+fn frame_of(image: robot_agent::RgbImage) -> Frame {
     Frame {
         width: image.width(),
         height: image.height(),
@@ -106,8 +106,8 @@ pub fn encode(photo: &SynthPhoto) -> Result<(Vec<u8>, &'static str)> {
             Ok((bytes, "jpg"))
         }
         None => {
-            let image = robot_agent::image::RgbImage::new(f.width, f.height, f.rgb.clone())?;
-            Ok((robot_agent::io::image_io::encode_png(&image)?, "png"))
+            let image = robot_agent::RgbImage::new(f.width, f.height, f.rgb.clone())?;
+            Ok((robot_agent::encode_png(&image)?, "png"))
         }
     }
 }
@@ -124,7 +124,7 @@ pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> 
     }
     let mut pictures = Vec::new();
     for p in &spec.backgrounds {
-        let image = robot_agent::io::image_io::load_rgb(p)
+        let image = robot_agent::load_rgb(p)
             .with_context(|| format!("reading background {}", p.display()))?;
         pictures.push(frame_of(image));
     }

@@ -9,9 +9,9 @@
 
 use anyhow::{Context, Result};
 use proto::{Camera, Stamp};
-use robot_agent::image::RgbImage;
-use robot_agent::runtime::frames_io::{RobotState, StoredFrame};
-use robot_agent::runtime::source::FrameSource;
+use robot_agent::FrameSource;
+use robot_agent::RgbImage;
+use robot_agent::{RobotState, StoredFrame};
 use sim::BallTruth;
 use sim::CameraRig;
 use sim::LensModel;

@@ -5,14 +5,14 @@
 #![allow(clippy::unwrap_used)]
 
 use proto::{Camera, Stamp};
-use robot_agent::detection::detect::{Detector, DetectorConfig, NoClock};
-use robot_agent::image::RgbImage;
-use robot_agent::io::ros_msg_fixtures as fx;
-use robot_agent::runtime::frames_io::StoredFrame;
-use robot_agent::runtime::models::{classifier, load_models};
-use robot_agent::runtime::ros_frames::RosTopics;
-use robot_agent::runtime::source::{FrameSource, McapSource};
-use robot_agent::runtime::timer::StageTimer;
+use robot_agent::RgbImage;
+use robot_agent::RosTopics;
+use robot_agent::StageTimer;
+use robot_agent::StoredFrame;
+use robot_agent::ros_msg_fixtures as fx;
+use robot_agent::{Detector, DetectorConfig, NoClock};
+use robot_agent::{FrameSource, McapSource};
+use robot_agent::{load_classifier as classifier, load_models};
 use std::path::PathBuf;
 use tools::sim_source::{SimArgs, SimSource};
 
@@ -38,17 +38,12 @@ fn all_frames(path: PathBuf, topics: &RosTopics) -> Vec<StoredFrame> {
 /// The pixel where a fresh agent finds the ball in `f`, if it does.
 fn found_at(f: &StoredFrame) -> Option<[f64; 2]> {
     let models = load_models(None, None).unwrap();
-    let config = robot_agent::agent::PipelineConfig::default();
+    let config = robot_agent::PipelineConfig::default();
     let classifier = classifier(&config.detector, None).unwrap();
-    let mut agent = robot_agent::agent::Agent::new(
-        "miro1",
-        proto::Pitch::default(),
-        config,
-        models,
-        classifier,
-    )
-    .unwrap();
-    let input = robot_agent::agent::FrameInput {
+    let mut agent =
+        robot_agent::Agent::new("miro1", proto::Pitch::default(), config, models, classifier)
+            .unwrap();
+    let input = robot_agent::FrameInput {
         stamp: f.stamp,
         camera: f.camera,
         image: &f.image,
@@ -106,7 +101,7 @@ fn the_pipeline_finds_the_ball_in_a_recorded_rendered_frame() {
         (frame.stamp.0 / 1_000_000_000) as u32,
         (frame.stamp.0 % 1_000_000_000) as u32,
     );
-    let png = robot_agent::io::image_io::encode_png(&frame.image).unwrap();
+    let png = robot_agent::encode_png(&frame.image).unwrap();
     let (topic, id) = match frame.camera {
         Camera::Left => (LEFT, "caml"),
         Camera::Right => (RIGHT, "camr"),

@@ -11,10 +11,10 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use proto::{Camera, Pitch};
-use robot_agent::agent::{Agent, FrameInput, PipelineConfig};
-use robot_agent::detection::detect::StageClock;
-use robot_agent::image::RgbImage;
-use robot_agent::runtime::models::{ClassifierArgs, DetectorPreset, classifier, load_models};
+use robot_agent::RgbImage;
+use robot_agent::StageClock;
+use robot_agent::{Agent, FrameInput, PipelineConfig};
+use robot_agent::{ClassifierArgs, DetectorPreset, load_classifier as classifier, load_models};
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig};

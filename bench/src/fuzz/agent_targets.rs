@@ -1,16 +1,16 @@
 //! robot-agent: the ROS 1 and ROS 2 message decoders, the VOC and YOLO label parsers, and
 //! PNG and JPEG decoding, each on mutated valid inputs.
 
-use robot_agent::image::RgbImage;
-use robot_agent::io::image_io;
-use robot_agent::io::ros_msg::{self, Encoding};
-use robot_agent::io::ros_msg_fixtures as ros;
+use robot_agent::RgbImage;
+
 use robot_agent::labels::BallBox;
 use robot_agent::labels::BallNames;
 use robot_agent::labels::voc::{parse_voc, write_voc};
 use robot_agent::labels::yolo::{
     BallClassIds, parse_classes_txt, parse_data_yaml_names, parse_yolo, yolo_line,
 };
+use robot_agent::ros_msg::{self, Encoding};
+use robot_agent::ros_msg_fixtures as ros;
 
 use super::{Target, Verdict};
 
@@ -144,7 +144,7 @@ fn png_seeds() -> Vec<Vec<u8>> {
     [(16, 12), (3, 2)]
         .into_iter()
         .filter_map(|(w, h)| RgbImage::new(w, h, card(w, h)).ok())
-        .filter_map(|img| image_io::encode_png(&img).ok())
+        .filter_map(|img| robot_agent::encode_png(&img).ok())
         .collect()
 }
 
@@ -164,8 +164,8 @@ fn jpeg_seeds() -> Vec<Vec<u8>> {
 
 fn image_target(name: &'static str, seeds: Vec<Vec<u8>>) -> Target {
     Target::new(name, seeds, |bytes| {
-        let rgb = image_io::decode_rgb(bytes).is_ok();
-        let gray = image_io::decode_gray(bytes).is_ok();
+        let rgb = robot_agent::decode_rgb(bytes).is_ok();
+        let gray = robot_agent::decode_gray(bytes).is_ok();
         assert_eq!(rgb, gray, "RGB and grey decoding disagree");
         Verdict::of(rgb)
     })

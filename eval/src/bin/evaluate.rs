@@ -276,9 +276,9 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         backgrounds: "tests/data/backgrounds/heldout".into(),
         real_balls: "tests/data/real-balls".into(),
     };
-    let detector = robot_agent::detection::detect::DetectorConfig::default();
+    let detector = robot_agent::DetectorConfig::default();
     let classifier = robot_agent::builtin::classifier(&detector)?;
-    let min_probability = robot_agent::pipeline::ValidationConfig::default().min_probability;
+    let min_probability = robot_agent::ValidationConfig::default().min_probability;
     let progress = tools::progress::Progress::new(0, "photos scored");
     let results = photo_eval::evaluate_photos(
         &cfg,

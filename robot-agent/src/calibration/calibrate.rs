@@ -14,15 +14,15 @@
 //! the calibration is fitted again without them. Errors are reported like OpenCV's: the
 //! root of the mean squared point error, per view and over all used points.
 
-use nalgebra::{Matrix3, Rotation3};
+use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::calibration::bundle::{self, Lens, Problem};
 use crate::calibration::camera::{CameraModel, CameraModelError, Distortion, Intrinsics};
 use crate::calibration::chessboard::{ChessboardError, find_chessboard};
-use crate::calibration::gray::GrayImage;
 use crate::calibration::homography;
+use crate::image::gray::GrayImage;
 
 /// A view whose error exceeds this multiple of the median is an outlier…
 const OUTLIER_RATIO: f64 = 3.0;
@@ -163,6 +163,7 @@ struct Usable<'a> {
 
 /// Calibrates a camera of `width_px × height_px` from views of `board`, fitting every
 /// distortion coefficient of `lens_model`.
+#[cfg(test)]
 pub fn calibrate(
     views: &[View],
     board: &Board,
@@ -477,11 +478,6 @@ fn equidistant_cost(
         }
     }
     cost.is_finite().then_some(cost)
-}
-
-/// The rotation matrix of an axis-angle vector.
-pub fn rotation_of(axis_angle_rad: [f64; 3]) -> Rotation3<f64> {
-    Rotation3::new(nalgebra::Vector3::from(axis_angle_rad))
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@
 
 use thiserror::Error;
 
-use crate::calibration::gray::GrayImage;
+use crate::image::gray::GrayImage;
 
 /// Radius of the ring of samples of the corner response, pixels. Squares must be at least
 /// about twice as wide.

@@ -10,7 +10,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use crate::calibration::calibrate::Board;
 use crate::calibration::camera::{CameraModel, Distortion, Intrinsics};
-use crate::calibration::gray::GrayImage;
+use crate::image::gray::GrayImage;
 
 /// The names of the chessboard photographs in `tests/data/chessboard-photos`.
 pub fn photo_names() -> Vec<&'static str> {

@@ -3,7 +3,7 @@
 //! simulator's camera): the board and lens flags, the fit, its report and the TOML file.
 
 use crate::calibration::calibrate::{Board, Calibration, LensModel, calibrate_with, detect_views};
-use crate::calibration::gray::GrayImage;
+use crate::image::gray::GrayImage;
 use anyhow::{Context, Result, bail};
 use std::path::{Path, PathBuf};
 

@@ -90,10 +90,6 @@ impl NetClassifier {
     pub fn new(net: BallNet) -> Self {
         NetClassifier { net }
     }
-
-    pub fn net(&self) -> &BallNet {
-        &self.net
-    }
 }
 
 impl CandidateClassifier for NetClassifier {

@@ -179,7 +179,7 @@ pub fn fit(samples: &ColourSamples) -> Result<ColourFit, ColourFitError> {
 
 impl ColourFit {
     /// The settings file's tables for this window.
-    pub fn to_toml(&self) -> String {
+    pub fn to_toml(self) -> String {
         let table = |name: &str, t: &HsvThresholds| {
             format!(
                 "[detector.{name}]\nhue_lo_deg = {:.1}\nhue_hi_deg = {:.1}\nsat_min = {:.3}\nsat_max = {:.3}\nval_min = {:.3}\nval_max = {:.3}\n",

@@ -62,6 +62,7 @@ struct Stats {
 /// The connected components (8-neighbour) of at least `min_area_px` pixels, largest first,
 /// at most `max_count` of them. Equal areas are ordered by their topmost-then-leftmost
 /// pixel, so the result is deterministic.
+#[cfg(test)]
 pub fn largest_components(mask: &Mask, min_area_px: usize, max_count: usize) -> Vec<Component> {
     joined_components(mask, 1, min_area_px, max_count)
 }

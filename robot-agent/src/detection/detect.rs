@@ -20,7 +20,6 @@
 //! (see [`crate::pipeline`]).
 
 use crate::calibration::camera::CameraModel;
-use crate::calibration::rectify::{LocalView, MAX_HALF_SIDE_PX};
 use crate::detection::blob_circle::{
     blob_circle, blob_size_px, is_roundish, ring_share, shrink, unshrink,
 };
@@ -30,6 +29,7 @@ use crate::detection::hough::{Circle, HoughConfig, HoughError};
 use crate::detection::hsv::{HsvError, HsvThresholds, MaskLut};
 use crate::detection::kmeans::ColourError;
 use crate::detection::morphology::{close, open};
+use crate::detection::rectify::{LocalView, MAX_HALF_SIDE_PX};
 use crate::detection::seeded_mask::SeededLut;
 use crate::detection::two_colour::{Hull, PatternError, region_mask};
 use crate::image::{ImageError, Mask, RgbImage};
@@ -80,8 +80,10 @@ pub trait CandidateClassifier {
 
 /// Accepts every circle with its Hough score as the probability (no learned filter).
 #[derive(Debug)]
+#[cfg(test)]
 pub struct HoughOnly;
 
+#[cfg(test)]
 impl CandidateClassifier for HoughOnly {
     fn probability(&self, _image: &RgbImage, circle: &Circle) -> Option<f64> {
         Some(circle.score.clamp(0.0, 1.0))

@@ -142,6 +142,7 @@ pub fn hog(patch: &Patch) -> HogDescriptor {
 
 /// Index in the descriptor of (block row, block column, cell row in block, cell column in
 /// block, bin); exposed so that tests and tools can read the layout.
+#[cfg(test)]
 pub fn index(block_y: usize, block_x: usize, cell_y: usize, cell_x: usize, bin: usize) -> usize {
     (((block_y * BLOCKS + block_x) * 2 + cell_y) * 2 + cell_x) * BINS + bin
 }

@@ -6,15 +6,12 @@
 //! lookup per pixel; [`mask_exact`] is the per-pixel reference. [`adapt`] follows slow
 //! lighting changes by moving the thresholds towards the colours of accepted balls.
 //!
-//! The mask cleanup ([`open`], [`close`]) and the connected components
-//! ([`largest_components`]) live in [`crate::detection::morphology`] and [`crate::detection::components`] and are
-//! re-exported here.
+//! The mask cleanup lives in [`crate::detection::morphology`] and the connected components
+//! in [`crate::detection::components`].
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-pub use crate::detection::components::{BoundingBox, Component, largest_components};
-pub use crate::detection::morphology::{close, dilate, erode, open};
 use crate::image::{Mask, RgbImage};
 
 /// Why thresholds, or an adaptation request, are unusable.
@@ -213,6 +210,7 @@ pub fn rgb_to_hsv(r: u8, g: u8, b: u8) -> (f64, f64, f64) {
 
 /// The exact mask: each pixel converted with [`rgb_to_hsv`] and tested against the
 /// thresholds. The reference for [`MaskLut`], slower because it divides per pixel.
+#[cfg(test)]
 pub fn mask_exact(image: &RgbImage, thresholds: &HsvThresholds) -> Result<Mask, HsvError> {
     thresholds.check()?;
     let data = image
@@ -314,6 +312,7 @@ impl MaskLut {
 
 /// The mask of a frame through a freshly built [`MaskLut`]; callers masking a stream of
 /// frames with the same thresholds should keep the [`MaskLut`] instead.
+#[cfg(test)]
 pub fn mask(image: &RgbImage, thresholds: &HsvThresholds) -> Result<Mask, HsvError> {
     Ok(MaskLut::new(thresholds)?.apply(image))
 }

@@ -5,6 +5,8 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
+use crate::detection::components::largest_components;
+use crate::detection::morphology::{close, open};
 use crate::image::ImageError;
 use crate::test_fixtures::orange;
 use approx::assert_abs_diff_eq;

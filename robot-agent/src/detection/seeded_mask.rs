@@ -45,6 +45,7 @@ impl SeededLut {
 
     /// The grown mask of a picture: the seeds, and every growth pixel reached from a seed
     /// through at most `reach_px` steps between 8-neighbouring growth pixels (0: no limit).
+    #[cfg(test)]
     pub fn apply(&self, image: &RgbImage, reach_px: u32) -> Mask {
         self.apply_with_seeds(image, reach_px).0
     }

@@ -22,7 +22,8 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-pub use crate::detection::svm_model::{MODEL_VERSION, Model, Platt};
+pub use crate::detection::svm_model::{Model, Platt};
+#[cfg(test)]
 use proto::rng::SplitMix64;
 
 /// Why an SVM could not be trained, or a model could not be used or loaded.
@@ -506,6 +507,7 @@ pub fn cross_val_decisions<F: AsRef<[f32]>>(
 
 /// Fits a calibrated SVM: Platt scaling on `folds`-fold cross-validated decision values
 /// (folds drawn with `seed`), then the SVM on all samples.
+#[cfg(test)]
 pub fn fit<F: AsRef<[f32]>>(
     features: &[F],
     labels: &[bool],

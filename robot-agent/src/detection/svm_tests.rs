@@ -4,6 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 
 use super::*;
+use crate::detection::svm_model::MODEL_VERSION;
 use proto::rng::SplitMix64;
 
 /// XOR-like data: label = sign(x) == sign(y), points away from the axes, plus 3 noise

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::calibration::gray::GrayImage;
 use crate::image::RgbImage;
+use crate::image::gray::GrayImage;
 
 /// Why an image file could not be loaded.
 #[derive(Debug, Error)]

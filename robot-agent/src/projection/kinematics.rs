@@ -25,6 +25,7 @@ impl CameraPose {
     }
 
     /// A field-frame point expressed in the camera frame, metres.
+    #[cfg(test)]
     pub fn point_in_camera(&self, p_field_m: Vector3<f64>) -> Vector3<f64> {
         self.field_from_camera.inverse() * (p_field_m - self.centre_m)
     }

@@ -10,9 +10,9 @@
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use robot_agent::calibration::gray::GrayImage;
+use robot_agent::GrayImage;
+use robot_agent::RgbImage;
 use robot_agent::cli::calibrate::{FitArgs, fit_and_write, parse_board};
-use robot_agent::image::RgbImage;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Parser)]
@@ -51,10 +51,7 @@ fn sim_images(views: usize, seed: u64, save: Option<&Path>) -> Result<Vec<(Strin
         let rgb = RgbImage::new(frame.width, frame.height, frame.rgb)?;
         let name = format!("board-{k:02}.png");
         if let Some(dir) = save {
-            std::fs::write(
-                dir.join(&name),
-                robot_agent::io::image_io::encode_png(&rgb)?,
-            )?;
+            std::fs::write(dir.join(&name), robot_agent::encode_png(&rgb)?)?;
         }
         out.push((name, GrayImage::from_rgb(&rgb)));
     }

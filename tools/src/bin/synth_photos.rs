@@ -45,7 +45,7 @@ fn image_files(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
         if p.is_dir() {
-            out.extend(robot_agent::io::image_io::image_files(p)?);
+            out.extend(robot_agent::image_files(p)?);
         } else {
             out.push(p.clone());
         }

@@ -14,7 +14,7 @@ use anyhow::Result;
 use clap::Parser;
 use robot_agent::cli::labelled::LabelledArgs;
 use robot_agent::cli::train::{fit_and_write, labelled_folder_patches};
-use robot_agent::runtime::models::load_models;
+use robot_agent::load_models;
 use std::path::PathBuf;
 use std::time::Instant;
 

@@ -1,5 +1,5 @@
 //! `sim_agent`: the robot agent on the simulator's rendered cameras. The agent's own
-//! runtime (`robot_agent::runtime::run`, the loop `robot-agent run` runs) with the frames
+//! runtime (`robot_agent::run_agent`, the loop `robot-agent run` runs) with the frames
 //! of a simulated match seen through one robot's two cameras; the detection is scored
 //! against the renderer's truth outside the agent.
 //!
@@ -35,7 +35,7 @@ use crate::agent_recall::scoring_hook;
 use crate::sim_source::{SimArgs, SimSource};
 use anyhow::{Result, bail};
 use clap::Parser;
-use robot_agent::runtime::{RunArgs, Source, wall_now};
+use robot_agent::{RunArgs, Source, wall_now};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -76,7 +76,7 @@ pub fn main() -> Result<()> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;
-    rt.block_on(robot_agent::runtime::run(
+    rt.block_on(robot_agent::run_agent(
         args.run,
         Source::Given(Box::new(source)),
         Some(hook),

@@ -6,11 +6,11 @@
 
 use anyhow::Result;
 use eval::report;
+use robot_agent::DetectorPreset;
 use robot_agent::cli::evaluate::{EvaluateOptions, evaluate_items};
 use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
-use robot_agent::detection::detect::{Detector, DetectorConfig};
 use robot_agent::labels::eval::LabelReport;
-use robot_agent::runtime::models::DetectorPreset;
+use robot_agent::{Detector, DetectorConfig};
 use std::path::{Path, PathBuf};
 
 pub const SECTION_BEGIN: &str = "<!-- evaluate-labelled:begin -->";
@@ -93,7 +93,7 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
         "| event | split | detector | photos | with a ball | recall % | precision % | ball recall % | recall % at 97 % precision | recall % at 90 % precision | false per photo | < 10 px | 10–20 px | 20–40 px | >= 40 px | ms median |".to_string(),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
-    let min_probability = robot_agent::pipeline::ValidationConfig::default().min_probability;
+    let min_probability = robot_agent::ValidationConfig::default().min_probability;
     for (preset, name) in [
         (DetectorPreset::Net, "net"),
         (DetectorPreset::Colour, "colour"),

@@ -38,6 +38,7 @@ impl LocalView {
     /// A view looking at frame pixel `centre_px`, covering about `half_extent_px` frame
     /// pixels on each side, at most [`MAX_HALF_SIDE_PX`] view pixels (a bigger extent is
     /// seen at a coarser scale). `None` where the model cannot unproject the centre.
+    #[cfg(test)]
     pub fn new(model: &CameraModel, centre_px: [f64; 2], half_extent_px: f64) -> Option<Self> {
         Self::fitting(model, centre_px, half_extent_px, MAX_HALF_SIDE_PX)
     }
@@ -108,10 +109,6 @@ impl LocalView {
     /// Side of the view, pixels.
     pub fn side(&self) -> u32 {
         2 * self.half_side + 1
-    }
-
-    pub fn f_px(&self) -> f64 {
-        self.f_px
     }
 
     /// The camera-frame unit ray through a view pixel.
