@@ -356,6 +356,8 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
         }),
     )
     .await?;
+    // The link up first: a put before it is lost.
+    s.until_accepted("link").await?;
     // Large (but valid) statuses make large frames, to fill the socket buffers quickly.
     let robots = 40;
     for k in 0..robots {

@@ -106,7 +106,8 @@ impl TestServer {
         })
     }
 
-    /// Puts `payload` on `key` from the client (waits for the link on the first call).
+    /// Puts `payload` on `key` from the client: lost if the link is not up yet (see
+    /// [`TestServer::until_accepted`]).
     pub async fn put(
         &self,
         key: &str,
