@@ -1,6 +1,8 @@
 //! Ball tracks read from CSV files: a header naming a time column and the ball's x and y
 //! (aliases accepted, extra columns ignored), optionally a track id column that splits one
-//! file into several tracks. Pure: [`parse`] takes the text, [`read`] is the thin file shell.
+//! file into several tracks. Comma, tab or semicolon delimited, quoted fields as RFC 4180
+//! has them (read by the `csv` crate). Pure: [`parse`] takes the text, [`read`] is the thin
+//! file shell.
 //!
 //! Rows with an empty, NaN or infinite time or position are skipped and counted (a tracker
 //! that lost the ball often writes them); a row whose time repeats the previous row's is
@@ -10,6 +12,7 @@
 //! Times are kept relative to the file's first usable time, so that epoch timestamps in
 //! nanoseconds do not lose precision in f64.
 
+use csv::StringRecord;
 use std::path::Path;
 use std::str::FromStr;
 use thiserror::Error;
@@ -211,6 +214,12 @@ pub enum TrackError {
     Io { file: String, message: String },
     #[error("{file}: no header line")]
     NoHeader { file: String },
+    #[error("{file}:{line}: {message}")]
+    Csv {
+        file: String,
+        line: u64,
+        message: String,
+    },
     #[error("{file}:{line}: no {what} column in the header (accepted: {accepted})")]
     MissingColumn {
         file: String,
@@ -277,11 +286,8 @@ fn find(names: &[String], accepted: &[&str]) -> Option<usize> {
         .find_map(|a| names.iter().position(|n| n == a))
 }
 
-fn columns(header: &str, delim: char, file: &str, line: usize) -> Result<Columns, TrackError> {
-    let names: Vec<String> = header
-        .split(delim)
-        .map(|s| s.trim().trim_matches('"').to_ascii_lowercase())
-        .collect();
+fn columns(header: &StringRecord, file: &str, line: usize) -> Result<Columns, TrackError> {
+    let names: Vec<String> = header.iter().map(str::to_ascii_lowercase).collect();
     let missing = |what, accepted: &[&str]| TrackError::MissingColumn {
         file: file.to_string(),
         line,
@@ -302,11 +308,11 @@ fn columns(header: &str, delim: char, file: &str, line: usize) -> Result<Columns
 }
 
 /// The delimiter a header line uses: comma, tab or semicolon.
-fn delimiter(header: &str) -> char {
-    [',', '\t', ';']
+fn delimiter(header: &str) -> u8 {
+    [b',', b'\t', b';']
         .into_iter()
-        .find(|d| header.contains(*d))
-        .unwrap_or(',')
+        .find(|d| header.contains(char::from(*d)))
+        .unwrap_or(b',')
 }
 
 /// A time value as written: integers exactly (epoch nanoseconds need all 64 bits).
@@ -335,7 +341,6 @@ impl Raw {
 
 /// One field as a number: `Ok(None)` for empty or non-finite (a skipped row), `Err` for text.
 fn number(s: &str) -> Result<Option<Raw>, ()> {
-    let s = s.trim().trim_matches('"');
     if s.is_empty() {
         return Ok(None);
     }
@@ -351,10 +356,11 @@ fn number(s: &str) -> Result<Option<Raw>, ()> {
 
 /// Parses a file's text. `file` names it in errors and in the tracks' names.
 pub fn parse(text: &str, file: &str, opts: &ReadOptions) -> Result<TrackFile, TrackError> {
+    // `# source:` comments before the header say where the data came from; the header's
+    // delimiter is the file's.
     let mut source: Vec<String> = Vec::new();
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
-    let mut header = None;
-    for (n, line) in lines.by_ref() {
+    let mut delim = None;
+    for line in text.lines() {
         let l = line.trim();
         if let Some(comment) = l.strip_prefix('#') {
             if let Some(s) = comment.trim().strip_prefix("source:") {
@@ -363,15 +369,40 @@ pub fn parse(text: &str, file: &str, opts: &ReadOptions) -> Result<TrackFile, Tr
             continue;
         }
         if !l.is_empty() {
-            header = Some((n, l));
+            delim = Some(delimiter(l));
             break;
         }
     }
-    let (header_line, header) = header.ok_or_else(|| TrackError::NoHeader {
+    let delim = delim.ok_or_else(|| TrackError::NoHeader {
         file: file.to_string(),
     })?;
-    let delim = delimiter(header);
-    let cols = columns(header, delim, file, header_line)?;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .delimiter(delim)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let csv_error = |e: csv::Error| TrackError::Csv {
+        file: file.to_string(),
+        line: e.position().map_or(0, csv::Position::line),
+        message: e.to_string(),
+    };
+    // Data lines: not blank, not a comment (indented ones too), with their line numbers.
+    let mut records = reader
+        .records()
+        .map(|r| r.map_err(csv_error))
+        .filter(|r| {
+            r.as_ref().map_or(true, |rec| {
+                let first = rec.get(0).unwrap_or_default();
+                !(first.starts_with('#') || rec.iter().all(str::is_empty))
+            })
+        })
+        .map(|r| r.map(|rec| (line_of(&rec), rec)));
+    let (header_line, header) = records.next().ok_or_else(|| TrackError::NoHeader {
+        file: file.to_string(),
+    })??;
+    let cols = columns(&header, file, header_line)?;
     let unit = opts.time_unit.unwrap_or(cols.unit);
     let needed = [Some(cols.t), Some(cols.x), Some(cols.y), cols.track]
         .into_iter()
@@ -400,13 +431,9 @@ pub fn parse(text: &str, file: &str, opts: &ReadOptions) -> Result<TrackFile, Tr
             out.skipped_lines.push(n);
         }
     };
-    for (n, line) in lines {
-        let l = line.trim();
-        if l.is_empty() || l.starts_with('#') {
-            continue;
-        }
+    for record in records {
+        let (n, fields) = record?;
         out.rows += 1;
-        let fields: Vec<&str> = l.split(delim).collect();
         if fields.len() < needed {
             return Err(TrackError::ShortRow {
                 file: file.to_string(),
@@ -415,12 +442,13 @@ pub fn parse(text: &str, file: &str, opts: &ReadOptions) -> Result<TrackFile, Tr
                 needed,
             });
         }
+        let field = |c: usize| fields.get(c).unwrap_or_default();
         let value = |c: usize| {
-            number(fields[c]).map_err(|()| TrackError::NotANumber {
+            number(field(c)).map_err(|()| TrackError::NotANumber {
                 file: file.to_string(),
                 line: n,
                 column: cols.names[c].clone(),
-                value: fields[c].trim().to_string(),
+                value: field(c).to_string(),
             })
         };
         let (t, x, y) = (value(cols.t)?, value(cols.x)?, value(cols.y)?);
@@ -428,9 +456,7 @@ pub fn parse(text: &str, file: &str, opts: &ReadOptions) -> Result<TrackFile, Tr
             skip(&mut out, n);
             continue;
         };
-        let id = cols
-            .track
-            .map(|c| fields[c].trim().trim_matches('"').to_string());
+        let id = cols.track.map(|c| field(c).to_string());
         let key = id.as_deref().unwrap_or_default();
         let index = match ids.iter().position(|i| i == key) {
             Some(i) => i,
@@ -491,6 +517,13 @@ pub fn parse(text: &str, file: &str, opts: &ReadOptions) -> Result<TrackFile, Tr
         }
     }
     Ok(out)
+}
+
+/// The line a record starts on (1 for the first).
+fn line_of(record: &StringRecord) -> usize {
+    record
+        .position()
+        .map_or(0, |p| usize::try_from(p.line()).unwrap_or(usize::MAX))
 }
 
 /// Reads and parses one file.

@@ -193,3 +193,33 @@ fn csv_written_reads_back() {
         assert!((a.position_m[0] - b.position_m[0]).abs() < 1e-9);
     }
 }
+
+#[test]
+fn quoted_fields_indented_comments_and_blank_lines_are_read_as_csv_has_them() {
+    // A quoted track id holding the delimiter, quoted numbers, an indented comment and a
+    // line of spaces between rows.
+    let mut text = String::from("\"time\",\"x\",\"y\",\"track\"\n");
+    for k in 0..12 {
+        text.push_str(&format!(
+            "\"{}\",{},\"0.5\",\"ball, red\"\n",
+            0.01 * k as f64,
+            k
+        ));
+        if k == 5 {
+            text.push_str("   # the tracker restarted\n   \n");
+        }
+    }
+    let f = ok(&text);
+    assert_eq!(f.tracks.len(), 1);
+    assert_eq!(f.tracks[0].name, "a.csv#ball, red");
+    assert_eq!(f.tracks[0].samples.len(), 12);
+    assert_eq!(f.rows, 12);
+    // Line numbers count every line, the skipped ones too.
+    let bad = text.replacen("11,\"0.5\"", "eleven,\"0.5\"", 1);
+    match err(&bad) {
+        TrackError::NotANumber { line, value, .. } => {
+            assert_eq!((line, value.as_str()), (15, "eleven"))
+        }
+        e => panic!("{e}"),
+    }
+}
