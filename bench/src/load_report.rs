@@ -293,7 +293,8 @@ mod tests {
     use super::*;
 
     const TEXT: &str = "\
-# HELP rf_inputs_received_total x
+# HELP rf_inputs_received x
+# TYPE rf_inputs_received counter
 rf_inputs_received_total 12
 rf_observations_accepted_total 10
 rf_states_published_total 7
@@ -304,6 +305,7 @@ rf_obs_to_state_latency_seconds_bucket{le=\"0.05\"} 10
 rf_obs_to_state_latency_seconds_bucket{le=\"+Inf\"} 10
 rf_obs_to_state_latency_seconds_sum 0.15
 rf_obs_to_state_latency_seconds_count 10
+# EOF
 ";
 
     #[test]

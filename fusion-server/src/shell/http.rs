@@ -155,7 +155,10 @@ async fn health(State(live): State<Arc<Live>>) -> Response {
 
 async fn metrics(State(live): State<Arc<Live>>) -> Response {
     (
-        [(header::CONTENT_TYPE, "text/plain; version=0.0.4")],
+        [(
+            header::CONTENT_TYPE,
+            "application/openmetrics-text; version=1.0.0; charset=utf-8",
+        )],
         live.metrics_text(),
     )
         .into_response()

@@ -1,8 +1,17 @@
-//! The server's counters and the Prometheus text exposition of them.
+//! The server's counters and their exposition in the OpenMetrics text format, encoded by
+//! `prometheus-client`: at each scrape a [`Snapshot`] of the engine's and the shell's
+//! counters is taken and handed to the encoder as a collector.
 
 use crate::engine::Engine;
+use prometheus_client::collector::Collector;
+use prometheus_client::encoding::{
+    DescriptorEncoder, EncodeMetric, MetricEncoder, NoLabelSet, text::encode,
+};
+use prometheus_client::metrics::MetricType;
+use prometheus_client::metrics::counter::ConstCounter;
+use prometheus_client::metrics::gauge::ConstGauge;
+use prometheus_client::registry::Registry;
 use proto::Stamp;
-use std::fmt::Write;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
@@ -47,16 +56,23 @@ impl Histogram {
         }
         None
     }
+}
 
-    fn render(&self, out: &mut String, name: &str) {
-        let mut cum = 0;
-        for (c, b) in self.counts.iter().zip(LATENCY_BUCKETS_S) {
-            cum += c;
-            let _ = writeln!(out, "{name}_bucket{{le=\"{b}\"}} {cum}");
-        }
-        let _ = writeln!(out, "{name}_bucket{{le=\"+Inf\"}} {}", self.count);
-        let _ = writeln!(out, "{name}_sum {}", self.sum);
-        let _ = writeln!(out, "{name}_count {}", self.count);
+impl EncodeMetric for Histogram {
+    fn encode(&self, mut encoder: MetricEncoder) -> Result<(), std::fmt::Error> {
+        // Per-bucket counts (the encoder sums them), the overflow in +Inf.
+        let within: u64 = self.counts.iter().sum();
+        let buckets: Vec<(f64, u64)> = LATENCY_BUCKETS_S
+            .iter()
+            .copied()
+            .zip(self.counts.iter().copied())
+            .chain(std::iter::once((f64::MAX, self.count - within)))
+            .collect();
+        encoder.encode_histogram::<NoLabelSet>(self.sum, self.count, &buckets, None)
+    }
+
+    fn metric_type(&self) -> MetricType {
+        MetricType::Histogram
     }
 }
 
@@ -98,21 +114,132 @@ impl ShellStats {
     }
 }
 
-fn family(out: &mut String, name: &str, kind: &str, help: &str) {
-    let _ = writeln!(out, "# HELP {name} {help}");
-    let _ = writeln!(out, "# TYPE {name} {kind}");
+/// One metric family's description. Counters are named without the `_total` that the
+/// encoder adds to their samples.
+#[derive(Debug, Clone, Copy)]
+struct Family {
+    name: &'static str,
+    counter: bool,
+    help: &'static str,
 }
 
-fn escape(label: &str) -> String {
-    label
-        .replace('\\', "\\\\")
-        .replace('"', "\\\"")
-        .replace('\n', "\\n")
+impl Family {
+    fn new(name: &'static str, kind: &str, help: &'static str) -> Family {
+        let counter = kind == "counter";
+        let name = if counter {
+            name.strip_suffix("_total").unwrap_or(name)
+        } else {
+            name
+        };
+        Family {
+            name,
+            counter,
+            help,
+        }
+    }
+
+    fn metric_type(&self) -> MetricType {
+        if self.counter {
+            MetricType::Counter
+        } else {
+            MetricType::Gauge
+        }
+    }
+
+    /// One sample of the family into `encoder`.
+    fn sample(&self, encoder: MetricEncoder, v: Value) -> Result<(), std::fmt::Error> {
+        match (self.counter, v) {
+            (true, Value::Count(n)) => ConstCounter::new(n).encode(encoder),
+            (true, Value::Real(x)) => ConstCounter::new(x).encode(encoder),
+            (false, Value::Count(n)) => {
+                ConstGauge::new(i64::try_from(n).unwrap_or(i64::MAX)).encode(encoder)
+            }
+            (false, Value::Real(x)) => ConstGauge::new(x).encode(encoder),
+        }
+    }
 }
 
-/// The Prometheus text exposition of the engine's and the shell's counters at `now`.
+/// A sample's value: counts are written as integers.
+#[derive(Debug, Clone, Copy)]
+enum Value {
+    Count(u64),
+    Real(f64),
+}
+
+/// What one scrape shows: the counters and gauges read at `now`.
+#[derive(Debug)]
+struct Snapshot {
+    simple: Vec<(Family, Value)>,
+    rejected: Vec<((String, String), u64)>,
+    per_robot: Vec<(Family, Vec<(String, Value)>)>,
+    active: Value,
+    clock_suspect: Value,
+    latency: Histogram,
+}
+
+impl Collector for Snapshot {
+    fn encode(&self, mut encoder: DescriptorEncoder) -> Result<(), std::fmt::Error> {
+        for (f, v) in &self.simple {
+            f.sample(
+                encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?,
+                *v,
+            )?;
+        }
+        let rejected = Family::new(
+            "rf_messages_rejected_total",
+            "counter",
+            "Inbound messages rejected, by message kind and reason.",
+        );
+        let mut family =
+            encoder.encode_descriptor(rejected.name, rejected.help, None, MetricType::Counter)?;
+        for ((kind, reason), n) in &self.rejected {
+            let labels = [("kind", kind.as_str()), ("reason", reason.as_str())];
+            ConstCounter::new(*n).encode(family.encode_family(&labels)?)?;
+        }
+        for (f, rows) in &self.per_robot {
+            let mut family = encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?;
+            for (robot, v) in rows {
+                f.sample(family.encode_family(&[("robot", robot.as_str())])?, *v)?;
+            }
+        }
+        let active = Family::new(
+            "rf_server_active",
+            "gauge",
+            "1 while this server publishes the ball; 0 while it stands by for a server of the same prefix with a smaller id.",
+        );
+        active.sample(
+            encoder.encode_descriptor(active.name, active.help, None, MetricType::Gauge)?,
+            self.active,
+        )?;
+        let suspect = Family::new(
+            "rf_robots_clock_suspect",
+            "gauge",
+            "Robots whose estimated clock offset exceeds the warning threshold.",
+        );
+        suspect.sample(
+            encoder.encode_descriptor(suspect.name, suspect.help, None, MetricType::Gauge)?,
+            self.clock_suspect,
+        )?;
+        self.latency.encode(encoder.encode_descriptor(
+            "rf_obs_to_state_latency_seconds",
+            "From an observation's arrival to the publication of a state that includes it.",
+            None,
+            MetricType::Histogram,
+        )?)
+    }
+}
+
+/// The OpenMetrics text exposition of the engine's and the shell's counters at `now`.
 pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
-    let mut out = String::with_capacity(4096);
+    let mut registry = Registry::default();
+    registry.register_collector(Box::new(snapshot(engine, shell, now)));
+    let mut out = String::with_capacity(8192);
+    // Writing into a String cannot fail.
+    let _ = encode(&mut out, &registry);
+    out
+}
+
+fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
@@ -280,22 +407,15 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             shell.record_skipped_rejected.load(Relaxed),
         ),
     ];
-    for (name, kind, help, v) in simple {
-        family(&mut out, name, kind, help);
-        let _ = writeln!(out, "{name} {v}");
-    }
-    family(
-        &mut out,
-        "rf_messages_rejected_total",
-        "counter",
-        "Inbound messages rejected, by message kind and reason.",
-    );
-    for ((kind, reason), n) in &c.rejected {
-        let _ = writeln!(
-            out,
-            "rf_messages_rejected_total{{kind=\"{kind}\",reason=\"{reason}\"}} {n}"
-        );
-    }
+    let simple = simple
+        .into_iter()
+        .map(|(name, kind, help, v)| (Family::new(name, kind, help), Value::Count(v)))
+        .collect();
+    let rejected = c
+        .rejected
+        .iter()
+        .map(|((kind, reason), n)| ((kind.to_string(), reason.to_string()), *n))
+        .collect();
 
     let robots = engine.robots(now);
     let per_robot: [(&str, &str, &str); 7] = [
@@ -335,52 +455,36 @@ pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
             "Seconds added to the robot's capture stamps before they are fused (0: not corrected).",
         ),
     ];
-    for (k, (name, kind, help)) in per_robot.iter().enumerate() {
-        family(&mut out, name, kind, help);
-        for r in &robots {
-            let v = match k {
-                0 => Some(f64::from(u8::from(r.online))),
-                1 => Some(r.obs_rate_hz),
-                2 => Some(r.observations_rejected as f64),
-                3 => r.covariance_scale,
-                4 => r.outlier_rate,
-                5 => r.clock_offset_s,
-                _ => r.clock_offset_s.map(|_| r.clock_correction_s),
-            };
-            if let Some(v) = v {
-                let _ = writeln!(out, "{name}{{robot=\"{}\"}} {v}", escape(&r.robot_id));
-            }
-        }
+    let per_robot = per_robot
+        .iter()
+        .enumerate()
+        .map(|(k, (name, kind, help))| {
+            let rows = robots
+                .iter()
+                .filter_map(|r| {
+                    let v = match k {
+                        0 => Some(Value::Count(u64::from(r.online))),
+                        1 => Some(Value::Real(r.obs_rate_hz)),
+                        2 => Some(Value::Count(r.observations_rejected)),
+                        3 => r.covariance_scale.map(Value::Real),
+                        4 => r.outlier_rate.map(Value::Real),
+                        5 => r.clock_offset_s.map(Value::Real),
+                        _ => r.clock_offset_s.map(|_| Value::Real(r.clock_correction_s)),
+                    };
+                    v.map(|v| (r.robot_id.clone(), v))
+                })
+                .collect();
+            (Family::new(name, kind, help), rows)
+        })
+        .collect();
+    Snapshot {
+        simple,
+        rejected,
+        per_robot,
+        active: Value::Count(u64::from(!shell.standby.load(Relaxed))),
+        clock_suspect: Value::Count(robots.iter().filter(|r| r.clock_suspect).count() as u64),
+        latency: shell.latency(),
     }
-
-    let name = "rf_server_active";
-    family(
-        &mut out,
-        name,
-        "gauge",
-        "1 while this server publishes the ball; 0 while it stands by for a server of the same prefix with a smaller id.",
-    );
-    let _ = writeln!(out, "{name} {}", u8::from(!shell.standby.load(Relaxed)));
-
-    let name = "rf_robots_clock_suspect";
-    family(
-        &mut out,
-        name,
-        "gauge",
-        "Robots whose estimated clock offset exceeds the warning threshold.",
-    );
-    let suspect = robots.iter().filter(|r| r.clock_suspect).count();
-    let _ = writeln!(out, "{name} {suspect}");
-
-    let name = "rf_obs_to_state_latency_seconds";
-    family(
-        &mut out,
-        name,
-        "histogram",
-        "From an observation's arrival to the publication of a state that includes it.",
-    );
-    shell.latency().render(&mut out, name);
-    out
 }
 
 #[cfg(test)]
@@ -397,14 +501,33 @@ mod tests {
         assert_eq!(h.quantile_bound(0.2), Some(1e-4));
         assert_eq!(h.quantile_bound(0.6), Some(5e-4));
         assert_eq!(h.quantile_bound(1.0), None, "5 s is beyond the last bucket");
+        let mut registry = Registry::default();
+        registry.register("x", "A histogram", h);
         let mut s = String::new();
-        h.render(&mut s, "x");
+        encode(&mut s, &registry).expect("a String takes any text");
         assert!(s.contains("x_bucket{le=\"0.0005\"} 3"), "{s}");
         assert!(s.contains("x_bucket{le=\"+Inf\"} 5"), "{s}");
+        assert!(s.contains("x_count 5"), "{s}");
     }
 
     #[test]
-    fn labels_are_escaped() {
-        assert_eq!(escape("a\"b\\c"), "a\\\"b\\\\c");
+    fn the_exposition_keeps_the_sample_names_and_is_openmetrics() {
+        use crate::engine::EngineConfig;
+        let engine = Engine::new(EngineConfig::default());
+        let shell = ShellStats::default();
+        shell.inputs_received.store(7, Relaxed);
+        shell.ws_clients.store(2, Relaxed);
+        let text = render(&engine, &shell, Stamp(1_000_000_000));
+        for line in [
+            "# TYPE rf_inputs_received counter",
+            "rf_inputs_received_total 7",
+            "# TYPE rf_ws_clients gauge",
+            "rf_ws_clients 2",
+            "rf_server_active 1",
+            "rf_obs_to_state_latency_seconds_count 0",
+            "# EOF",
+        ] {
+            assert!(text.lines().any(|l| l == line), "no {line:?} in\n{text}");
+        }
     }
 }
