@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use fusion_server::{Clock, SystemClock};
 use proto::net::{NetConfig, free_loopback_port};
 use proto::{Camera, KeySpace, Observation, Pose2, Stamp};
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
@@ -195,19 +195,17 @@ impl Drop for ServerProcess {
     }
 }
 
-/// GET `path` from `addr` (HTTP/1.1, connection closed): the body of a 200 answer.
+/// GET `path` from `addr`: the body of a 200 answer.
 pub fn http_get(addr: &str, path: &str) -> Result<String> {
-    let mut s = std::net::TcpStream::connect(addr).with_context(|| format!("connecting {addr}"))?;
-    s.set_read_timeout(Some(Duration::from_secs(10)))?;
-    write!(
-        s,
-        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
-    )?;
-    let mut raw = String::new();
-    s.read_to_string(&mut raw)?;
-    let (head, body) = raw.split_once("\r\n\r\n").unwrap_or((&raw, ""));
-    anyhow::ensure!(head.starts_with("HTTP/1.1 200"), "GET {path}: {head}");
-    Ok(body.to_string())
+    let agent: ureq::Agent = ureq::Agent::config_builder()
+        .timeout_global(Some(Duration::from_secs(10)))
+        .build()
+        .into();
+    let mut answer = agent
+        .get(format!("http://{addr}{path}"))
+        .call()
+        .with_context(|| format!("GET {path} from {addr}"))?;
+    Ok(answer.body_mut().read_to_string()?)
 }
 
 /// The certificates of a secured load test, in a folder removed when dropped.

@@ -160,22 +160,20 @@ impl TestServer {
             .find_map(|l| l.strip_prefix(&prefix).and_then(|v| v.parse().ok()))
     }
 
-    /// A GET over a fresh connection: the status code and the body.
+    /// A GET: the status code and the body.
     pub async fn get(&self, path: &str) -> anyhow::Result<(u16, String)> {
-        use tokio::io::{AsyncReadExt, AsyncWriteExt};
-        let mut c = tokio::net::TcpStream::connect(self.http).await?;
-        let req = format!("GET {path} HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n");
-        c.write_all(req.as_bytes()).await?;
-        let mut out = Vec::new();
-        tokio::time::timeout(Duration::from_secs(10), c.read_to_end(&mut out)).await??;
-        let text = String::from_utf8_lossy(&out).into_owned();
-        let code = text
-            .split(' ')
-            .nth(1)
-            .and_then(|c| c.parse().ok())
-            .unwrap_or(0);
-        let body = text.split_once("\r\n\r\n").map(|(_, b)| b.to_string());
-        Ok((code, body.unwrap_or_default()))
+        let url = format!("http://{}{path}", self.http);
+        tokio::task::spawn_blocking(move || {
+            let agent: ureq::Agent = ureq::Agent::config_builder()
+                .http_status_as_error(false)
+                .timeout_global(Some(Duration::from_secs(10)))
+                .build()
+                .into();
+            let mut answer = agent.get(url).call()?;
+            let code = answer.status().as_u16();
+            Ok((code, answer.body_mut().read_to_string()?))
+        })
+        .await?
     }
 
     pub async fn stop(self) -> anyhow::Result<()> {

@@ -9,7 +9,6 @@ use crate::shell::replay_live::{Deliver, PlayConfig, play};
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
 use std::time::{Duration, Instant};
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
 const T0: Stamp = Stamp(1_800_000_000_000_000_000);
 /// The log's length, seconds.
@@ -110,7 +109,7 @@ async fn serve_http(live: Arc<Live>) -> SocketAddr {
     addr
 }
 
-/// One HTTP/1.1 request: (status, body).
+/// One request (`GET` or `POST`): (status, body), whatever the status.
 async fn request(
     addr: SocketAddr,
     method: &str,
@@ -118,29 +117,35 @@ async fn request(
     headers: &[(&str, &str)],
     body: &str,
 ) -> (u16, String) {
-    let mut s = tokio::net::TcpStream::connect(addr).await.expect("connect");
-    let mut head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n",
-        body.len()
-    );
-    for (k, v) in headers {
-        head.push_str(&format!("{k}: {v}\r\n"));
-    }
-    head.push_str("\r\n");
-    s.write_all(head.as_bytes()).await.expect("write");
-    s.write_all(body.as_bytes()).await.expect("write");
-    let mut raw = String::new();
-    tokio::time::timeout(Duration::from_secs(10), s.read_to_string(&mut raw))
-        .await
-        .expect("an answer within 10 s")
-        .expect("read");
-    let (head, body) = raw.split_once("\r\n\r\n").unwrap_or((&raw, ""));
-    let code = head
-        .split_whitespace()
-        .nth(1)
-        .and_then(|c| c.parse().ok())
-        .unwrap_or(0);
-    (code, body.to_string())
+    let url = format!("http://{addr}{path}");
+    let (method, body) = (method.to_string(), body.to_string());
+    let headers: Vec<(String, String)> = headers
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    tokio::task::spawn_blocking(move || {
+        let agent: ureq::Agent = ureq::Agent::config_builder()
+            .http_status_as_error(false)
+            .timeout_global(Some(Duration::from_secs(10)))
+            .build()
+            .into();
+        let mut answer = match method.as_str() {
+            "GET" => headers
+                .iter()
+                .fold(agent.get(&url), |r, (k, v)| r.header(k, v))
+                .call(),
+            "POST" => headers
+                .iter()
+                .fold(agent.post(&url), |r, (k, v)| r.header(k, v))
+                .send(body.as_str()),
+            other => panic!("no {other} requests here"),
+        }
+        .expect("an answer within 10 s");
+        let code = answer.status().as_u16();
+        (code, answer.body_mut().read_to_string().expect("a body"))
+    })
+    .await
+    .expect("the request's thread")
 }
 
 async fn status_of(addr: SocketAddr) -> serde_json::Value {
