@@ -373,11 +373,27 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
         s.put(&format!("rf/robots/{robot}/status"), proto::encode(&st))
             .await?;
     }
-    eventually("the statuses in", || {
-        s.live
-            .with_engine(|e| (e.counters().statuses_accepted == robots).then_some(()))
-    })
-    .await;
+    let in_time = tokio::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        let (accepted, rejected) = s.live.with_engine(|e| {
+            let c = e.counters();
+            let rejected: u64 = c
+                .rejected
+                .iter()
+                .filter(|((kind, _), _)| *kind == "status")
+                .map(|(_, n)| *n)
+                .sum();
+            (c.statuses_accepted, rejected)
+        });
+        if accepted == robots {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < in_time,
+            "{accepted} of {robots} statuses accepted, {rejected} rejected"
+        );
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
     let url = format!("ws://{}/api/stream", s.http);
     let (stuck, _) = tokio_tungstenite::connect_async(&url).await?;
     eventually("the stuck client dropped", || {

@@ -113,7 +113,13 @@ impl TestServer {
         key: &str,
         payload: impl Into<zenoh::bytes::ZBytes>,
     ) -> anyhow::Result<()> {
-        self.client.put(key, payload).await.map_err(z)
+        // Blocking, not dropping, when the link's queue is full: bursts of large payloads
+        // must all arrive.
+        self.client
+            .put(key, payload)
+            .congestion_control(zenoh::qos::CongestionControl::Block)
+            .await
+            .map_err(z)
     }
 
     /// Publishes good observations from `robot` until the server has accepted one.
