@@ -79,8 +79,8 @@ pub trait CandidateClassifier {
 }
 
 /// Accepts every circle with its Hough score as the probability (no learned filter).
-#[derive(Debug)]
 #[cfg(test)]
+#[derive(Debug)]
 pub struct HoughOnly;
 
 #[cfg(test)]
@@ -323,13 +323,33 @@ impl Detector {
         Ok(proposals)
     }
 
-    /// The colour path's proposals.
+    /// The colour path's proposals, stage by stage: the ball-colour mask and its cleanup,
+    /// the blobs in it, the circles of each blob (in its local view with a camera model, in
+    /// the frame without), and the proposals from them, less fragments of bigger things.
     fn propose_colour(
         &self,
         image: &RgbImage,
         model: Option<&CameraModel>,
         clock: &mut dyn StageClock,
     ) -> Result<Proposals, DetectError> {
+        let (mask, seeds) = self.colour_mask(image, clock);
+        let blobs = self.colour_blobs(&mask, seeds.as_ref())?;
+        clock.mark("blobs");
+        let mut found = Vec::with_capacity(blobs.len());
+        for blob in &blobs {
+            found.extend(self.blob_circles(image, &mask, blob, model)?);
+        }
+        let mut proposals = assemble(found, image, model)?;
+        // A circle with the ball's colours all round it is a fragment of something bigger.
+        let fragment = |p: &Proposal| ring_share(image, &p.frame) > FRAGMENT_RING_SHARE;
+        proposals.items.retain(|p| !fragment(p));
+        clock.mark("hough");
+        Ok(proposals)
+    }
+
+    /// Stages `mask` and `cleanup`: the pixels of the ball's colours, opened; with seeded
+    /// growth, also the seeds it grew from.
+    fn colour_mask(&self, image: &RgbImage, clock: &mut dyn StageClock) -> (Mask, Option<Mask>) {
         let cfg = &self.config;
         let (mask, seeds) = if cfg.seeded {
             let (grown, seeds) = self.seeded.apply_with_seeds(image, cfg.seeded_reach_px);
@@ -344,13 +364,24 @@ impl Detector {
             mask
         };
         clock.mark("cleanup");
+        (mask, seeds)
+    }
+
+    /// The blobs of the mask, joined across a pattern's gaps; a big blob the growth made of
+    /// a ball and its surroundings is searched again around its own seeds.
+    fn colour_blobs(
+        &self,
+        mask: &Mask,
+        seeds: Option<&Mask>,
+    ) -> Result<Vec<Component>, DetectError> {
+        let cfg = &self.config;
         let reach_px = if cfg.pattern.enabled {
             cfg.pattern.join_reach_px
         } else {
             1
         };
-        let mut blobs = joined_components(&mask, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
-        if let Some(seeds) = &seeds {
+        let mut blobs = joined_components(mask, reach_px, cfg.min_blob_area_px, cfg.max_blobs);
+        if let Some(seeds) = seeds {
             // A ball that the growth joined to a bigger region of ball-like colours (a warm
             // wall, a hand, a marking it touches) is searched again around its own seeds.
             let mut merged = Vec::new();
@@ -392,150 +423,142 @@ impl Detector {
             merged.truncate(cfg.max_blobs);
             blobs.extend(merged);
         }
-        clock.mark("blobs");
-        // Circles per blob, in the blob's local view (with a model) or in the frame.
-        let mut found: Vec<(Option<LocalView>, Vec<Circle>, bool)> = Vec::new();
-        for blob in &blobs {
-            let m = cfg.roi_margin_px + cfg.close_radius_px;
-            let hull = cfg.pattern.patterned_hull(blob);
-            let growth = if hull.is_some() {
-                cfg.pattern.view_growth
-            } else {
-                0.0
-            };
-            let b = &blob.bbox;
-            let size = blob_size_px(blob);
-            let small = size <= cfg.small_blob_max_px;
-            // A blob Hough may miss, as its own circle (in frame pixels), proposed when the
-            // Hough transform finds nothing in it.
-            let own = (small
-                || (cfg.blob_fallback
-                    && is_roundish(blob, FALLBACK_MAX_ASPECT, FALLBACK_MIN_FILL)))
-            .then(|| blob_circle(blob));
-            match model {
-                Some(model) => {
-                    let half = 0.5 * f64::from(size) * (1.0 + growth) + f64::from(m);
-                    // Big blobs are seen at a coarser scale, so the ball's radius stays
-                    // within the Hough transform's range.
-                    let max_half = (self.config.hough.r_max_px as u32 + m).min(MAX_HALF_SIDE_PX);
-                    let Some(view) = LocalView::fitting(model, blob.centroid_px, half, max_half)
-                    else {
-                        continue;
-                    };
-                    // The view looks at the blob's centroid through its centre pixel.
-                    let centre = f64::from(view.side() / 2);
-                    let in_view = |c: Circle| Circle {
-                        center_px: [centre, centre],
-                        radius_px: c.radius_px / view.scale(),
-                        ..c
-                    };
-                    let patterned = match (hull, &self.white_lut) {
-                        (Some(hull), Some(lut)) => Some((
-                            view.sample_lut(image, lut)?,
-                            Hull {
-                                centre_px: [centre, centre],
-                                radius_px: hull.radius_px / view.scale(),
-                            },
-                        )),
-                        _ => None,
-                    };
-                    let mut circles = self.circles(view.sample_mask(&mask)?, patterned)?;
-                    if circles.is_empty() {
-                        circles.extend(own.map(in_view));
-                    }
-                    found.push((Some(view), circles, hull.is_some()));
-                }
-                None => {
-                    let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
-                    let x0 = b.x_min.saturating_sub(m);
-                    let y0 = b.y_min.saturating_sub(m);
-                    let x1 = (b.x_max + m).min(mask.width() - 1);
-                    let y1 = (b.y_max + m).min(mask.height() - 1);
-                    let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
-                    // Shrunk so that the ball's radius is within the Hough range.
-                    let k = (f64::from(size) / (1.8 * self.config.hough.r_max_px))
-                        .ceil()
-                        .max(1.0) as u32;
-                    let roi = shrink(&crop(&mask, x0, y0, w, h)?, k);
-                    let patterned = match (hull, &self.white_lut) {
-                        (Some(hull), Some(lut)) => Some((
-                            shrink(&crop_lut(image, lut, x0, y0, w, h)?, k),
-                            Hull {
-                                centre_px: [
-                                    (hull.centre_px[0] - f64::from(x0)) / f64::from(k),
-                                    (hull.centre_px[1] - f64::from(y0)) / f64::from(k),
-                                ],
-                                radius_px: hull.radius_px / f64::from(k),
-                            },
-                        )),
-                        _ => None,
-                    };
-                    let shift = |c: Circle| {
-                        let c = unshrink(c, k);
-                        Circle {
-                            center_px: [
-                                c.center_px[0] + f64::from(x0),
-                                c.center_px[1] + f64::from(y0),
-                            ],
-                            ..c
-                        }
-                    };
-                    let mut circles: Vec<Circle> = self
-                        .circles(roi, patterned)?
-                        .into_iter()
-                        .map(shift)
-                        .collect();
-                    if circles.is_empty() {
-                        circles.extend(own);
-                    }
-                    found.push((None, circles, hull.is_some()));
-                }
-            }
+        Ok(blobs)
+    }
+
+    /// The circles of one blob: in its local view with a camera `model` (`None` when no
+    /// view fits), else in the frame; with whether the blob is a patterned ball's.
+    fn blob_circles(
+        &self,
+        image: &RgbImage,
+        mask: &Mask,
+        blob: &Component,
+        model: Option<&CameraModel>,
+    ) -> Result<Option<BlobCircles>, DetectError> {
+        let cfg = &self.config;
+        let m = cfg.roi_margin_px + cfg.close_radius_px;
+        let hull = cfg.pattern.patterned_hull(blob);
+        let growth = if hull.is_some() {
+            cfg.pattern.view_growth
+        } else {
+            0.0
+        };
+        let size = blob_size_px(blob);
+        let small = size <= cfg.small_blob_max_px;
+        // A blob Hough may miss, as its own circle (in frame pixels), proposed when the
+        // Hough transform finds nothing in it.
+        let own = (small
+            || (cfg.blob_fallback && is_roundish(blob, FALLBACK_MAX_ASPECT, FALLBACK_MIN_FILL)))
+        .then(|| blob_circle(blob));
+        let blob_view = BlobView {
+            blob,
+            hull,
+            growth,
+            margin_px: m,
+            size_px: size,
+            own,
+        };
+        match model {
+            Some(model) => self.circles_in_view(image, mask, model, &blob_view),
+            None => self.circles_in_frame(image, mask, &blob_view).map(Some),
         }
-        let mut proposals = Proposals::default();
-        for (view, circles, sparse_blob) in found {
-            match (view, model) {
-                (Some(view), Some(model)) => {
-                    if circles.is_empty() {
-                        continue;
-                    }
-                    let index = proposals.views.len();
-                    proposals.views.push(view.sample_rgb(image)?);
-                    for c in circles {
-                        let Some(center_px) = model.project(view.ray(c.center_px)) else {
-                            continue;
-                        };
-                        proposals.items.push(Proposal {
-                            frame: Circle {
-                                center_px,
-                                radius_px: c.radius_px * view.scale(),
-                                ..c
-                            },
-                            local: c,
-                            view: Some(index),
-                            angular_radius_rad: Some(
-                                view.angular_radius_rad(c.center_px, c.radius_px),
-                            ),
-                            sparse_blob,
-                        });
-                    }
-                }
-                _ => proposals
-                    .items
-                    .extend(circles.into_iter().map(|c| Proposal {
-                        frame: c,
-                        local: c,
-                        view: None,
-                        angular_radius_rad: None,
-                        sparse_blob,
-                    })),
-            }
+    }
+
+    /// A blob's circles searched in its local perspective view, mapped to the view's centre.
+    fn circles_in_view(
+        &self,
+        image: &RgbImage,
+        mask: &Mask,
+        model: &CameraModel,
+        b: &BlobView<'_>,
+    ) -> Result<Option<BlobCircles>, DetectError> {
+        let (blob, hull, growth, m, size, own) =
+            (b.blob, b.hull, b.growth, b.margin_px, b.size_px, b.own);
+        let half = 0.5 * f64::from(size) * (1.0 + growth) + f64::from(m);
+        // Big blobs are seen at a coarser scale, so the ball's radius stays
+        // within the Hough transform's range.
+        let max_half = (self.config.hough.r_max_px as u32 + m).min(MAX_HALF_SIDE_PX);
+        let Some(view) = LocalView::fitting(model, blob.centroid_px, half, max_half) else {
+            return Ok(None);
+        };
+        // The view looks at the blob's centroid through its centre pixel.
+        let centre = f64::from(view.side() / 2);
+        let in_view = |c: Circle| Circle {
+            center_px: [centre, centre],
+            radius_px: c.radius_px / view.scale(),
+            ..c
+        };
+        let patterned = match (hull, &self.white_lut) {
+            (Some(hull), Some(lut)) => Some((
+                view.sample_lut(image, lut)?,
+                Hull {
+                    centre_px: [centre, centre],
+                    radius_px: hull.radius_px / view.scale(),
+                },
+            )),
+            _ => None,
+        };
+        let mut circles = self.circles(view.sample_mask(mask)?, patterned)?;
+        if circles.is_empty() {
+            circles.extend(own.map(in_view));
         }
-        // A circle with the ball's colours all round it is a fragment of something bigger.
-        let fragment = |p: &Proposal| ring_share(image, &p.frame) > FRAGMENT_RING_SHARE;
-        proposals.items.retain(|p| !fragment(p));
-        clock.mark("hough");
-        Ok(proposals)
+        Ok(Some((Some(view), circles, hull.is_some())))
+    }
+
+    /// A blob's circles searched in a window of the frame around it, shrunk so the ball's
+    /// radius is within the Hough transform's range.
+    fn circles_in_frame(
+        &self,
+        image: &RgbImage,
+        mask: &Mask,
+        b: &BlobView<'_>,
+    ) -> Result<BlobCircles, DetectError> {
+        let (blob, hull, growth, m, size, own) =
+            (b.blob, b.hull, b.growth, b.margin_px, b.size_px, b.own);
+        let b = &blob.bbox;
+        let m = m + (0.5 * f64::from(size) * growth).ceil() as u32;
+        let x0 = b.x_min.saturating_sub(m);
+        let y0 = b.y_min.saturating_sub(m);
+        let x1 = (b.x_max + m).min(mask.width() - 1);
+        let y1 = (b.y_max + m).min(mask.height() - 1);
+        let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
+        // Shrunk so that the ball's radius is within the Hough range.
+        let k = (f64::from(size) / (1.8 * self.config.hough.r_max_px))
+            .ceil()
+            .max(1.0) as u32;
+        let roi = shrink(&crop(mask, x0, y0, w, h)?, k);
+        let patterned = match (hull, &self.white_lut) {
+            (Some(hull), Some(lut)) => Some((
+                shrink(&crop_lut(image, lut, x0, y0, w, h)?, k),
+                Hull {
+                    centre_px: [
+                        (hull.centre_px[0] - f64::from(x0)) / f64::from(k),
+                        (hull.centre_px[1] - f64::from(y0)) / f64::from(k),
+                    ],
+                    radius_px: hull.radius_px / f64::from(k),
+                },
+            )),
+            _ => None,
+        };
+        let shift = |c: Circle| {
+            let c = unshrink(c, k);
+            Circle {
+                center_px: [
+                    c.center_px[0] + f64::from(x0),
+                    c.center_px[1] + f64::from(y0),
+                ],
+                ..c
+            }
+        };
+        let mut circles: Vec<Circle> = self
+            .circles(roi, patterned)?
+            .into_iter()
+            .map(shift)
+            .collect();
+        if circles.is_empty() {
+            circles.extend(own);
+        }
+        Ok((None, circles, hull.is_some()))
     }
 
     /// The candidates in a frame, most probable first: [`Detector::propose`], then the
@@ -671,3 +694,64 @@ mod tests;
 #[cfg(test)]
 #[path = "detect_photo_tests.rs"]
 mod photo_tests;
+
+/// One blob's circles: the local view they are in (`None`: frame pixels) and whether the
+/// blob is a patterned ball's.
+type BlobCircles = (Option<LocalView>, Vec<Circle>, bool);
+
+/// What the circle search needs of a blob.
+struct BlobView<'a> {
+    blob: &'a Component,
+    hull: Option<Hull>,
+    growth: f64,
+    margin_px: u32,
+    size_px: u32,
+    own: Option<Circle>,
+}
+
+/// The proposals from every blob's circles: in frame pixels, with the local view (kept
+/// once per blob) and the angular radius when a camera model placed them.
+fn assemble(
+    found: Vec<BlobCircles>,
+    image: &RgbImage,
+    model: Option<&CameraModel>,
+) -> Result<Proposals, DetectError> {
+    let mut proposals = Proposals::default();
+    for (view, circles, sparse_blob) in found {
+        match (view, model) {
+            (Some(view), Some(model)) => {
+                if circles.is_empty() {
+                    continue;
+                }
+                let index = proposals.views.len();
+                proposals.views.push(view.sample_rgb(image)?);
+                for c in circles {
+                    let Some(center_px) = model.project(view.ray(c.center_px)) else {
+                        continue;
+                    };
+                    proposals.items.push(Proposal {
+                        frame: Circle {
+                            center_px,
+                            radius_px: c.radius_px * view.scale(),
+                            ..c
+                        },
+                        local: c,
+                        view: Some(index),
+                        angular_radius_rad: Some(view.angular_radius_rad(c.center_px, c.radius_px)),
+                        sparse_blob,
+                    });
+                }
+            }
+            _ => proposals
+                .items
+                .extend(circles.into_iter().map(|c| Proposal {
+                    frame: c,
+                    local: c,
+                    view: None,
+                    angular_radius_rad: None,
+                    sparse_blob,
+                })),
+        }
+    }
+    Ok(proposals)
+}
