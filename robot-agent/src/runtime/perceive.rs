@@ -98,81 +98,30 @@ pub(crate) fn perceive(
     stop: Arc<AtomicBool>,
     mut hook: Option<FrameHook>,
 ) -> Result<Summary> {
-    let pace = !args.fast && (source.live() || args.restamp);
     let mut sink = args
         .record_frames
         .as_deref()
         .map(FrameSink::create)
         .transpose()?;
+    let mut pacer = Pacer::new(args, source.live());
+    let mut status = StatusClock::new(args.status_hz);
     let mut timer = StageTimer::new();
     let mut summary = Summary::default();
-    let started = Instant::now();
-    let mut first: Option<Stamp> = None;
-    let mut restamp_offset_ns: i128 = 0;
-    let mut next_status: Option<Stamp> = None;
     let mut last_progress = Instant::now();
-    let status_dt = 1.0 / args.status_hz.max(0.1);
-    while !stop.load(Ordering::Relaxed) {
-        #[cfg(unix)]
-        if args
-            .parent_pid
-            .is_some_and(|p| std::os::unix::process::parent_id() != p)
-        {
-            tracing::warn!(
-                "{}: the launching process is gone; stopping",
-                agent.robot_id()
-            );
-            break;
-        }
+    while !stop.load(Ordering::Relaxed) && !launcher_gone(args, &agent) {
         let Some(mut frame) = source.next_frame()? else {
             break;
         };
         let source_stamp = frame.stamp;
-        let first_stamp = *first.get_or_insert(frame.stamp);
-        if args
-            .duration
-            .is_some_and(|d| frame.stamp.secs_since(first_stamp) > d)
-        {
-            break;
-        }
-        if args.restamp {
-            if summary.frames == 0 {
-                restamp_offset_ns = i128::from(wall_now().0) - i128::from(frame.stamp.0);
-            }
-            frame.stamp =
-                Stamp(u64::try_from(i128::from(frame.stamp.0) + restamp_offset_ns).unwrap_or(0));
-        }
-        if pace {
-            let ahead_s = frame.stamp.secs_since(wall_now());
-            if ahead_s > 0.0 {
-                std::thread::sleep(Duration::from_secs_f64(ahead_s.min(1.0)));
-            } else if ahead_s < -MAX_LAG_S {
-                // A camera hands over its newest frame: a pipeline that fell behind skips
-                // frames instead of publishing stale sightings.
+        match pacer.admit(&mut frame.stamp, summary.frames == 0) {
+            Admission::End => break,
+            Admission::Late => {
                 summary.skipped += 1;
                 continue;
             }
+            Admission::Now => {}
         }
-        // Each new state is handed over once; the agent keeps the latest.
-        if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
-            agent.on_ball_state(state);
-        }
-        fit_calibration(
-            &mut agent,
-            frame.camera,
-            &frame.image,
-            args.rescale_calibration,
-        )?;
-        let input = FrameInput {
-            stamp: frame.stamp,
-            camera: frame.camera,
-            image: &frame.image,
-            pose: frame.state.pose,
-            pose_covariance: frame.state.pose_covariance,
-            head: frame.state.head,
-        };
-        timer.start();
-        let outcome = agent.on_frame(&input, &mut timer).context("pipeline")?;
+        let outcome = perceive_frame(&mut agent, &frame, &shared, args, &mut timer)?;
         summary.frames += 1;
         if summary.total_ms.len() < MAX_TIMED_FRAMES {
             summary.total_ms.push(timer.frame_ms());
@@ -190,39 +139,179 @@ pub(crate) fn perceive(
                 let _ = tx.blocking_send(Outbound::Observation(o));
             }
         }
-        if next_status.is_none_or(|n| frame.stamp >= n) {
-            next_status = Some(frame.stamp.offset_secs(status_dt));
-            let fps = summary.frames as f64 / started.elapsed().as_secs_f64().max(1e-3);
-            let timings = timer
-                .medians_ms()
-                .into_iter()
-                .map(|(stage, ms)| StageTiming { stage, ms })
-                .collect();
-            let s = frame.state;
-            let status = agent.status(frame.stamp, s.pose, s.pose_covariance, s.head, fps, timings);
-            if let Some(tx) = &out {
-                let _ = tx.blocking_send(Outbound::Status(status));
-            }
+        if let Some(st) = status.due(&agent, &frame, &timer, summary.frames)
+            && let Some(tx) = &out
+        {
+            let _ = tx.blocking_send(Outbound::Status(st));
         }
         if let Some(sink) = &mut sink {
             sink.write(&frame)?;
         }
-        if last_progress.elapsed() >= Duration::from_secs(5) {
+        if last_progress.elapsed() >= PROGRESS_EVERY {
             last_progress = Instant::now();
-            let total = timer.medians_ms().last().map_or(0.0, |(_, ms)| *ms);
-            tracing::info!(
-                "{}: {} frames, {} observations, pipeline median {total:.2} ms/frame, rejected {:?}",
-                agent.robot_id(),
-                summary.frames,
-                summary.observations,
-                agent.rejections()
-            );
+            log_progress(&agent, &summary, &timer);
         }
     }
     if let Some(sink) = sink {
         sink.finish()?;
     }
     Ok(summary)
+}
+
+/// How often the loop logs its progress.
+const PROGRESS_EVERY: Duration = Duration::from_secs(5);
+
+/// Whether the process that launched this one (`--parent-pid`) is gone: then the agent
+/// stops rather than run on as an orphan.
+fn launcher_gone(args: &RunArgs, agent: &Agent) -> bool {
+    #[cfg(unix)]
+    if args
+        .parent_pid
+        .is_some_and(|p| std::os::unix::process::parent_id() != p)
+    {
+        tracing::warn!(
+            "{}: the launching process is gone; stopping",
+            agent.robot_id()
+        );
+        return true;
+    }
+    let _ = (args, agent);
+    false
+}
+
+/// What becomes of a frame from the source.
+enum Admission {
+    /// Process it.
+    Now,
+    /// Skip it: a live pipeline that fell behind.
+    Late,
+    /// Stop: `--duration` has passed.
+    End,
+}
+
+/// The frames' times: `--duration` from the first frame, `--restamp` onto the wall clock,
+/// and pacing to the wall clock for live sources (and restamped recordings).
+struct Pacer {
+    pace: bool,
+    restamp: bool,
+    duration_s: Option<f64>,
+    first: Option<Stamp>,
+    restamp_offset_ns: i128,
+}
+
+impl Pacer {
+    fn new(args: &RunArgs, live: bool) -> Pacer {
+        Pacer {
+            pace: !args.fast && (live || args.restamp),
+            restamp: args.restamp,
+            duration_s: args.duration,
+            first: None,
+            restamp_offset_ns: 0,
+        }
+    }
+
+    /// Restamps `stamp` (the offset is taken until a first frame is processed, `before_first`)
+    /// and waits for its time when pacing.
+    fn admit(&mut self, stamp: &mut Stamp, before_first: bool) -> Admission {
+        let first = *self.first.get_or_insert(*stamp);
+        if self.duration_s.is_some_and(|d| stamp.secs_since(first) > d) {
+            return Admission::End;
+        }
+        if self.restamp {
+            if before_first {
+                self.restamp_offset_ns = i128::from(wall_now().0) - i128::from(stamp.0);
+            }
+            *stamp =
+                Stamp(u64::try_from(i128::from(stamp.0) + self.restamp_offset_ns).unwrap_or(0));
+        }
+        if self.pace {
+            let ahead_s = stamp.secs_since(wall_now());
+            if ahead_s > 0.0 {
+                std::thread::sleep(Duration::from_secs_f64(ahead_s.min(1.0)));
+            } else if ahead_s < -MAX_LAG_S {
+                // A camera hands over its newest frame: a pipeline that fell behind skips
+                // frames instead of publishing stale sightings.
+                return Admission::Late;
+            }
+        }
+        Admission::Now
+    }
+}
+
+/// One frame through the agent: the newest ball state handed over first, the camera's
+/// calibration checked against the frame's size.
+fn perceive_frame(
+    agent: &mut Agent,
+    frame: &StoredFrame,
+    shared: &Mutex<Option<BallState>>,
+    args: &RunArgs,
+    timer: &mut StageTimer,
+) -> Result<FrameOutcome> {
+    // Each new state is handed over once; the agent keeps the latest.
+    if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
+        agent.on_ball_state(state);
+    }
+    fit_calibration(agent, frame.camera, &frame.image, args.rescale_calibration)?;
+    let input = FrameInput {
+        stamp: frame.stamp,
+        camera: frame.camera,
+        image: &frame.image,
+        pose: frame.state.pose,
+        pose_covariance: frame.state.pose_covariance,
+        head: frame.state.head,
+    };
+    timer.start();
+    agent.on_frame(&input, timer).context("pipeline")
+}
+
+/// When the next status is due, at `--status-hz` of frame time.
+struct StatusClock {
+    started: Instant,
+    next: Option<Stamp>,
+    dt_s: f64,
+}
+
+impl StatusClock {
+    fn new(status_hz: f64) -> StatusClock {
+        StatusClock {
+            started: Instant::now(),
+            next: None,
+            dt_s: 1.0 / status_hz.max(0.1),
+        }
+    }
+
+    /// The robot's status at `frame`, if one is due.
+    fn due(
+        &mut self,
+        agent: &Agent,
+        frame: &StoredFrame,
+        timer: &StageTimer,
+        frames: u64,
+    ) -> Option<RobotStatus> {
+        if self.next.is_some_and(|n| frame.stamp < n) {
+            return None;
+        }
+        self.next = Some(frame.stamp.offset_secs(self.dt_s));
+        let fps = frames as f64 / self.started.elapsed().as_secs_f64().max(1e-3);
+        let timings = timer
+            .medians_ms()
+            .into_iter()
+            .map(|(stage, ms)| StageTiming { stage, ms })
+            .collect();
+        let s = frame.state;
+        Some(agent.status(frame.stamp, s.pose, s.pose_covariance, s.head, fps, timings))
+    }
+}
+
+fn log_progress(agent: &Agent, summary: &Summary, timer: &StageTimer) {
+    let total = timer.medians_ms().last().map_or(0.0, |(_, ms)| *ms);
+    tracing::info!(
+        "{}: {} frames, {} observations, pipeline median {total:.2} ms/frame, rejected {:?}",
+        agent.robot_id(),
+        summary.frames,
+        summary.observations,
+        agent.rejections()
+    );
 }
 
 /// Checks that `camera`'s calibration is for frames of `image`'s size; a calibration for
