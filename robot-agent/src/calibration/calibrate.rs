@@ -188,17 +188,7 @@ pub fn calibrate_with(
     lens_model: LensModel,
     fisheye_terms: usize,
 ) -> Result<Calibration, CalibrationError> {
-    if !(1..=4).contains(&fisheye_terms) {
-        return Err(CalibrationError::InvalidInput(format!(
-            "{fisheye_terms} fisheye terms (1 to 4)"
-        )));
-    }
-    if !(board.square_m > 0.0 && board.square_m.is_finite()) || board.cols * board.rows < 4 {
-        return Err(CalibrationError::InvalidInput(format!("board {board:?}")));
-    }
-    if width_px == 0 || height_px == 0 {
-        return Err(CalibrationError::InvalidInput("empty image".into()));
-    }
+    check_input(board, width_px, height_px, fisheye_terms)?;
     let lens = match lens_model {
         LensModel::BrownConrady => Lens::BrownConrady,
         LensModel::KannalaBrandt => Lens::KannalaBrandt,
@@ -216,6 +206,65 @@ pub fn calibrate_with(
             translation_m: None,
         })
         .collect();
+    let mut usable = usable_views(views, &object, &plane, &mut per_view);
+    if usable.len() < MIN_VIEWS {
+        return Err(CalibrationError::TooFewViews {
+            usable: usable.len(),
+            needed: MIN_VIEWS,
+        });
+    }
+    let (w, h) = (f64::from(width_px), f64::from(height_px));
+    let (mut intrinsics, poses) = match lens {
+        Lens::BrownConrady => pinhole_start(&usable, w, h)?,
+        Lens::KannalaBrandt => fisheye_start(&usable, &plane, w, h)?,
+    };
+    // Kannala–Brandt's k1..k4 are intrinsics 4..8.
+    let fixed: Vec<usize> = match lens {
+        Lens::KannalaBrandt => (4 + fisheye_terms..8).collect(),
+        Lens::BrownConrady => Vec::new(),
+    };
+    for &k in &fixed {
+        intrinsics[k] = 0.0;
+    }
+    let fit = Fit {
+        lens,
+        object: &object,
+        fixed: &fixed,
+    };
+    let (intrinsics, poses) =
+        fit.refine_without_outliers(&mut usable, intrinsics, poses, &mut per_view);
+    fit.finish(&usable, &intrinsics, &poses, per_view, width_px, height_px)
+}
+
+/// The flags a calibration is asked with, checked.
+fn check_input(
+    board: &Board,
+    width_px: u32,
+    height_px: u32,
+    fisheye_terms: usize,
+) -> Result<(), CalibrationError> {
+    if !(1..=4).contains(&fisheye_terms) {
+        return Err(CalibrationError::InvalidInput(format!(
+            "{fisheye_terms} fisheye terms (1 to 4)"
+        )));
+    }
+    if !(board.square_m > 0.0 && board.square_m.is_finite()) || board.cols * board.rows < 4 {
+        return Err(CalibrationError::InvalidInput(format!("board {board:?}")));
+    }
+    if width_px == 0 || height_px == 0 {
+        return Err(CalibrationError::InvalidInput("empty image".into()));
+    }
+    Ok(())
+}
+
+/// The views whose board was found whole, with their homographies; each other view's
+/// reason in `per_view`.
+fn usable_views<'a>(
+    views: &'a [View],
+    object: &[[f64; 3]],
+    plane: &[[f64; 2]],
+    per_view: &mut [ViewResult],
+) -> Vec<Usable<'a>> {
     let mut usable = Vec::new();
     for (index, view) in views.iter().enumerate() {
         let reason = match &view.corners_px {
@@ -225,7 +274,7 @@ pub fn calibrate_with(
                 c.len(),
                 object.len()
             )),
-            Ok(c) => match homography::fit_homography(&plane, c) {
+            Ok(c) => match homography::fit_homography(plane, c) {
                 None => Some("degenerate homography".to_string()),
                 Some(homography) => {
                     usable.push(Usable {
@@ -239,79 +288,97 @@ pub fn calibrate_with(
         };
         per_view[index].reason = reason;
     }
-    if usable.len() < MIN_VIEWS {
-        return Err(CalibrationError::TooFewViews {
-            usable: usable.len(),
-            needed: MIN_VIEWS,
-        });
-    }
-    let (w, h) = (f64::from(width_px), f64::from(height_px));
-    let (mut intrinsics, mut poses) = match lens {
-        Lens::BrownConrady => pinhole_start(&usable, w, h)?,
-        Lens::KannalaBrandt => fisheye_start(&usable, &plane, w, h)?,
-    };
-    // Kannala–Brandt's k1..k4 are intrinsics 4..8.
-    let fixed: Vec<usize> = match lens {
-        Lens::KannalaBrandt => (4 + fisheye_terms..8).collect(),
-        Lens::BrownConrady => Vec::new(),
-    };
-    for &k in &fixed {
-        intrinsics[k] = 0.0;
-    }
-    // Fit, drop outliers, fit again until none is left.
-    loop {
-        let problem = Problem {
-            lens,
-            object: &object,
-            views: usable.iter().map(|u| u.corners_px).collect(),
-            fixed: &fixed,
-        };
-        (intrinsics, poses) = problem.refine(intrinsics, poses);
-        let errors: Vec<f64> = usable
-            .iter()
-            .zip(&poses)
-            .map(|(u, pose)| bundle::view_rms_px(lens, &intrinsics, pose, &object, u.corners_px))
-            .collect();
-        let mut sorted = errors.clone();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted[sorted.len() / 2];
-        let limit = (OUTLIER_RATIO * median).max(OUTLIER_FLOOR_PX);
-        for (u, e) in usable.iter().zip(&errors) {
-            per_view[u.index].rms_px = Some(*e);
-        }
-        let keep: Vec<bool> = errors.iter().map(|e| *e <= limit).collect();
-        if keep.iter().all(|k| *k) || keep.iter().filter(|k| **k).count() < MIN_VIEWS {
-            break;
-        }
-        for (u, e) in usable.iter().zip(&errors) {
-            if *e > limit {
-                per_view[u.index].reason = Some(format!(
-                    "reprojection error {e:.2} px is an outlier (median {median:.2} px)"
-                ));
+    usable
+}
+
+/// One calibration's fixed parts: the lens, the board's points and the intrinsics held at 0.
+struct Fit<'a> {
+    lens: Lens,
+    object: &'a [[f64; 3]],
+    fixed: &'a [usize],
+}
+
+impl Fit<'_> {
+    /// Fits, drops the outlying views (their reasons in `per_view`), and fits again until
+    /// none is left or too few views would remain.
+    fn refine_without_outliers(
+        &self,
+        usable: &mut Vec<Usable<'_>>,
+        mut intrinsics: Vec<f64>,
+        mut poses: Vec<[f64; 6]>,
+        per_view: &mut [ViewResult],
+    ) -> (Vec<f64>, Vec<[f64; 6]>) {
+        let (lens, object, fixed) = (self.lens, self.object, self.fixed);
+        // Fit, drop outliers, fit again until none is left.
+        loop {
+            let problem = Problem {
+                lens,
+                object,
+                views: usable.iter().map(|u| u.corners_px).collect(),
+                fixed,
+            };
+            (intrinsics, poses) = problem.refine(intrinsics, poses);
+            let errors: Vec<f64> = usable
+                .iter()
+                .zip(&poses)
+                .map(|(u, pose)| bundle::view_rms_px(lens, &intrinsics, pose, object, u.corners_px))
+                .collect();
+            let mut sorted = errors.clone();
+            sorted.sort_by(f64::total_cmp);
+            let median = sorted[sorted.len() / 2];
+            let limit = (OUTLIER_RATIO * median).max(OUTLIER_FLOOR_PX);
+            for (u, e) in usable.iter().zip(&errors) {
+                per_view[u.index].rms_px = Some(*e);
             }
+            let keep: Vec<bool> = errors.iter().map(|e| *e <= limit).collect();
+            if keep.iter().all(|k| *k) || keep.iter().filter(|k| **k).count() < MIN_VIEWS {
+                break;
+            }
+            for (u, e) in usable.iter().zip(&errors) {
+                if *e > limit {
+                    per_view[u.index].reason = Some(format!(
+                        "reprojection error {e:.2} px is an outlier (median {median:.2} px)"
+                    ));
+                }
+            }
+            let mut k = keep.iter();
+            usable.retain(|_| k.next().copied().unwrap_or(false));
+            let mut k = keep.iter();
+            poses.retain(|_| k.next().copied().unwrap_or(false));
         }
-        let mut k = keep.iter();
-        usable.retain(|_| k.next().copied().unwrap_or(false));
-        let mut k = keep.iter();
-        poses.retain(|_| k.next().copied().unwrap_or(false));
+        (intrinsics, poses)
     }
-    let mut squared = 0.0;
-    for (u, pose) in usable.iter().zip(&poses) {
-        let rms = bundle::view_rms_px(lens, &intrinsics, pose, &object, u.corners_px);
-        squared += rms * rms * object.len() as f64;
-        let result = &mut per_view[u.index];
-        result.used = true;
-        result.rotation_rad = Some([pose[0], pose[1], pose[2]]);
-        result.translation_m = Some([pose[3], pose[4], pose[5]]);
+
+    /// The calibration from the final fit: the used views' errors and poses, the overall
+    /// reprojection error, and the camera model checked.
+    fn finish(
+        &self,
+        usable: &[Usable<'_>],
+        intrinsics: &[f64],
+        poses: &[[f64; 6]],
+        mut per_view: Vec<ViewResult>,
+        width_px: u32,
+        height_px: u32,
+    ) -> Result<Calibration, CalibrationError> {
+        let (lens, object) = (self.lens, self.object);
+        let mut squared = 0.0;
+        for (u, pose) in usable.iter().zip(poses) {
+            let rms = bundle::view_rms_px(lens, intrinsics, pose, object, u.corners_px);
+            squared += rms * rms * object.len() as f64;
+            let result = &mut per_view[u.index];
+            result.used = true;
+            result.rotation_rad = Some([pose[0], pose[1], pose[2]]);
+            result.translation_m = Some([pose[3], pose[4], pose[5]]);
+        }
+        let model = camera_model(lens, intrinsics, width_px, height_px);
+        model.check()?;
+        Ok(Calibration {
+            model,
+            rms_px: (squared / (usable.len() * object.len()) as f64).sqrt(),
+            views_used: usable.len(),
+            per_view,
+        })
     }
-    let model = camera_model(lens, &intrinsics, width_px, height_px);
-    model.check()?;
-    Ok(Calibration {
-        model,
-        rms_px: (squared / (usable.len() * object.len()) as f64).sqrt(),
-        views_used: usable.len(),
-        per_view,
-    })
 }
 
 /// The camera model of an intrinsics block.
