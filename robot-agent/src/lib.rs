@@ -71,7 +71,7 @@ pub use io::ros_msg;
 #[cfg(any(test, feature = "test-support"))]
 pub use io::ros_msg_fixtures;
 pub use pipeline::ValidationConfig;
-pub use runtime::frames_io::{RobotState, StoredFrame};
+pub use runtime::frame::{RobotState, StoredFrame};
 pub use runtime::models::{
     ClassifierArgs, DetectorPreset, classifier as load_classifier, load_config, load_models,
 };

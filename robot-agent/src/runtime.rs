@@ -14,6 +14,7 @@
 //! - [`models`]: calibrations, pipeline settings and the ball classifier from files.
 //! - [`timer`]: per-stage timings for the status.
 
+pub mod frame;
 pub mod frames_io;
 pub mod live_ros;
 pub mod models;

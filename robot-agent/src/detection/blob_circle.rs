@@ -55,7 +55,7 @@ pub fn is_roundish(blob: &Component, max_aspect: f64, min_fill: f64) -> bool {
 pub fn ring_share(image: &RgbImage, circle: &Circle) -> f64 {
     const POINTS: usize = 24;
     let [cx, cy] = circle.center_px;
-    let inner = crate::detection::detect::disc_hsv(image, circle, 0.6);
+    let inner = crate::detection::hsv::disc_hsv(image, circle, 0.6);
     if inner.is_empty() {
         return 0.0;
     }

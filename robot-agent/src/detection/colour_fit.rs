@@ -8,9 +8,9 @@
 //! margin; the saturation and value floors are the 10th and 5th percentiles less a margin.
 //! The fit reports how many ball pixels and how many background pixels the window lets in.
 
-use crate::detection::detect::disc_hsv;
 use crate::detection::hough::Circle;
 use crate::detection::hsv::HsvThresholds;
+use crate::detection::hsv::disc_hsv;
 use crate::image::RgbImage;
 use thiserror::Error;
 

@@ -26,7 +26,7 @@ use crate::detection::blob_circle::{
 use crate::detection::components::{BoundingBox, Component, joined_components};
 pub use crate::detection::detect_config::{ClassifierKind, DetectorConfig, Proposer};
 use crate::detection::hough::{Circle, HoughConfig, HoughError};
-use crate::detection::hsv::{HsvError, HsvThresholds, MaskLut};
+use crate::detection::hsv::{HsvError, HsvThresholds, MaskLut, disc_hsv};
 use crate::detection::kmeans::ColourError;
 use crate::detection::morphology::{close, open};
 use crate::detection::rectify::{LocalView, MAX_HALF_SIDE_PX};
@@ -664,37 +664,6 @@ fn crop_lut(
     Mask::new(w, h, data)
 }
 
-/// HSV colours of the pixels within `shrink` × the circle's radius of its centre (the rim
-/// mixes in the background).
-pub fn disc_hsv(image: &RgbImage, circle: &Circle, shrink: f64) -> Vec<(f64, f64, f64)> {
-    let r = circle.radius_px * shrink;
-    let [cx, cy] = circle.center_px;
-    let x0 = (cx - r).floor().max(0.0) as u32;
-    let y0 = (cy - r).floor().max(0.0) as u32;
-    let x1 = ((cx + r).ceil().max(0.0) as u32).min(image.width().saturating_sub(1));
-    let y1 = ((cy + r).ceil().max(0.0) as u32).min(image.height().saturating_sub(1));
-    let mut out = Vec::new();
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            let (dx, dy) = (f64::from(x) - cx, f64::from(y) - cy);
-            if dx * dx + dy * dy <= r * r
-                && let Some([red, g, b]) = image.pixel(x, y)
-            {
-                out.push(crate::detection::hsv::rgb_to_hsv(red, g, b));
-            }
-        }
-    }
-    out
-}
-
-#[cfg(test)]
-#[path = "detect_tests.rs"]
-mod tests;
-
-#[cfg(test)]
-#[path = "detect_photo_tests.rs"]
-mod photo_tests;
-
 /// One blob's circles: the local view they are in (`None`: frame pixels) and whether the
 /// blob is a patterned ball's.
 type BlobCircles = (Option<LocalView>, Vec<Circle>, bool);
@@ -755,3 +724,11 @@ fn assemble(
     }
     Ok(proposals)
 }
+
+#[cfg(test)]
+#[path = "detect_tests.rs"]
+mod tests;
+
+#[cfg(test)]
+#[path = "detect_photo_tests.rs"]
+mod photo_tests;

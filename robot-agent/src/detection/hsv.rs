@@ -12,6 +12,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::detection::hough::Circle;
 use crate::image::{Mask, RgbImage};
 
 /// Why thresholds, or an adaptation request, are unusable.
@@ -210,6 +211,29 @@ pub fn rgb_to_hsv(r: u8, g: u8, b: u8) -> (f64, f64, f64) {
 
 /// The exact mask: each pixel converted with [`rgb_to_hsv`] and tested against the
 /// thresholds. The reference for [`MaskLut`], slower because it divides per pixel.
+/// HSV colours of the pixels within `shrink` × the circle's radius of its centre (the rim
+/// mixes in the background).
+pub fn disc_hsv(image: &RgbImage, circle: &Circle, shrink: f64) -> Vec<(f64, f64, f64)> {
+    let r = circle.radius_px * shrink;
+    let [cx, cy] = circle.center_px;
+    let x0 = (cx - r).floor().max(0.0) as u32;
+    let y0 = (cy - r).floor().max(0.0) as u32;
+    let x1 = ((cx + r).ceil().max(0.0) as u32).min(image.width().saturating_sub(1));
+    let y1 = ((cy + r).ceil().max(0.0) as u32).min(image.height().saturating_sub(1));
+    let mut out = Vec::new();
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let (dx, dy) = (f64::from(x) - cx, f64::from(y) - cy);
+            if dx * dx + dy * dy <= r * r
+                && let Some([red, g, b]) = image.pixel(x, y)
+            {
+                out.push(rgb_to_hsv(red, g, b));
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 pub fn mask_exact(image: &RgbImage, thresholds: &HsvThresholds) -> Result<Mask, HsvError> {
     thresholds.check()?;

@@ -20,72 +20,11 @@
 //! Newton method of Lin, Lin and Weng (2007).
 
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
-pub use crate::detection::svm_model::{Model, Platt};
+pub use crate::detection::svm_model::{Model, Platt, SvmError};
+use crate::detection::svm_model::{Standardiser, dot};
 #[cfg(test)]
 use proto::rng::SplitMix64;
-
-/// Why an SVM could not be trained, or a model could not be used or loaded.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum SvmError {
-    /// A parameter is out of its range.
-    #[error("SVM parameter {name} = {value} is invalid: {why}")]
-    BadParameter {
-        /// The parameter.
-        name: &'static str,
-        /// Its value.
-        value: f64,
-        /// The allowed range.
-        why: &'static str,
-    },
-    /// Training needs samples of both classes.
-    #[error("training needs both classes: {positives} positive and {negatives} negative sample(s)")]
-    OneClass {
-        /// Positive samples.
-        positives: usize,
-        /// Negative samples.
-        negatives: usize,
-    },
-    /// Features and labels differ in number.
-    #[error("{features} feature vectors but {labels} labels")]
-    LabelCount {
-        /// Feature vectors.
-        features: usize,
-        /// Labels.
-        labels: usize,
-    },
-    /// A feature vector has the wrong length.
-    #[error("feature vector {index} has {actual} values, expected {expected}")]
-    Dimension {
-        /// Index of the vector (0 for a single query).
-        index: usize,
-        /// Values expected.
-        expected: usize,
-        /// Values supplied.
-        actual: usize,
-    },
-    /// A feature is NaN or infinite.
-    #[error("feature vector {index} holds a non-finite value")]
-    NonFinite {
-        /// Index of the vector.
-        index: usize,
-    },
-    /// A serialised model could not be parsed.
-    #[error("cannot parse the model: {0}")]
-    Parse(String),
-    /// A serialised model parsed but is inconsistent.
-    #[error("invalid model: {0}")]
-    InvalidModel(String),
-    /// The model has another format version.
-    #[error("model format version {found}, this build reads version {expected}")]
-    Version {
-        /// Version in the file.
-        found: u32,
-        /// Version this build reads.
-        expected: u32,
-    },
-}
 
 /// Parameters of one SVM fit.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -136,65 +75,6 @@ impl SvmParams {
         }
         Ok(())
     }
-}
-
-/// Smallest standard deviation a feature is scaled by (HOG features lie in [0, 1] and
-/// typically spread by 0.05 to 0.2).
-pub const MIN_FEATURE_STD: f64 = 1e-2;
-
-/// Per-feature standardisation: `(x − mean) × inv_std`.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Standardiser {
-    pub(crate) mean: Vec<f32>,
-    pub(crate) inv_std: Vec<f32>,
-}
-
-impl Standardiser {
-    /// Mean and inverse standard deviation of each feature. Spreads below
-    /// [`MIN_FEATURE_STD`] count as that value, so that a feature that is (nearly) constant
-    /// in training cannot dominate distances when it moves at prediction time.
-    fn fit<F: AsRef<[f32]>>(features: &[F], dim: usize) -> Self {
-        let n = features.len().max(1) as f64;
-        let mut mean = vec![0.0f64; dim];
-        let mut sq = vec![0.0f64; dim];
-        for f in features {
-            for (k, &v) in f.as_ref().iter().enumerate() {
-                mean[k] += f64::from(v);
-                sq[k] += f64::from(v) * f64::from(v);
-            }
-        }
-        let mut inv_std = vec![1.0f32; dim];
-        for k in 0..dim {
-            mean[k] /= n;
-            let var = (sq[k] / n - mean[k] * mean[k]).max(0.0);
-            inv_std[k] = (1.0 / var.sqrt().max(MIN_FEATURE_STD)) as f32;
-        }
-        Self {
-            mean: mean.into_iter().map(|m| m as f32).collect(),
-            inv_std,
-        }
-    }
-
-    /// Standardises one vector into `out`.
-    pub(crate) fn apply_into(&self, x: &[f32], out: &mut [f32]) {
-        for (((o, &v), &m), &s) in out.iter_mut().zip(x).zip(&self.mean).zip(&self.inv_std) {
-            *o = (v - m) * s;
-        }
-    }
-}
-
-/// Dot product with eight accumulators so that the compiler vectorises it.
-pub(crate) fn dot(a: &[f32], b: &[f32]) -> f32 {
-    let mut acc = [0.0f32; 8];
-    let (ac, ar) = a.split_at(a.len() / 8 * 8);
-    let (bc, br) = b.split_at(ac.len().min(b.len()));
-    for (x, y) in ac.chunks_exact(8).zip(bc.chunks_exact(8)) {
-        for k in 0..8 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    let tail: f32 = ar.iter().zip(br).map(|(x, y)| x * y).sum();
-    acc.iter().sum::<f32>() + tail
 }
 
 /// Checks features against labels and a common dimension; returns the dimension.

@@ -1,4 +1,5 @@
-//! A trained RBF-SVM ball classifier: prediction, Platt calibration and serialisation.
+//! A trained RBF-SVM ball classifier: its errors, feature standardisation, prediction,
+//! Platt calibration and serialisation (the training is in [`crate::detection::svm`]).
 //!
 //! The model serialises to JSON with a format version. Support vectors and per-feature
 //! statistics are stored as base64 of little-endian `f32` (5.3 characters per value instead
@@ -11,9 +12,130 @@
 //! `Σ coef_i exp(−γ (‖x‖² + ‖s_i‖² − 2 x·s_i)) − ρ`, the support vectors' squared norms
 //! being computed on load: one dot product and one exponential per support vector.
 
+use base64::Engine;
+use base64::engine::general_purpose::STANDARD as BASE64;
 use serde::{Deserialize, Serialize};
+use thiserror::Error;
 
-use crate::detection::svm::{Standardiser, SvmError, dot};
+/// Why an SVM could not be trained, or a model could not be used or loaded.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SvmError {
+    /// A parameter is out of its range.
+    #[error("SVM parameter {name} = {value} is invalid: {why}")]
+    BadParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// The allowed range.
+        why: &'static str,
+    },
+    /// Training needs samples of both classes.
+    #[error("training needs both classes: {positives} positive and {negatives} negative sample(s)")]
+    OneClass {
+        /// Positive samples.
+        positives: usize,
+        /// Negative samples.
+        negatives: usize,
+    },
+    /// Features and labels differ in number.
+    #[error("{features} feature vectors but {labels} labels")]
+    LabelCount {
+        /// Feature vectors.
+        features: usize,
+        /// Labels.
+        labels: usize,
+    },
+    /// A feature vector has the wrong length.
+    #[error("feature vector {index} has {actual} values, expected {expected}")]
+    Dimension {
+        /// Index of the vector (0 for a single query).
+        index: usize,
+        /// Values expected.
+        expected: usize,
+        /// Values supplied.
+        actual: usize,
+    },
+    /// A feature is NaN or infinite.
+    #[error("feature vector {index} holds a non-finite value")]
+    NonFinite {
+        /// Index of the vector.
+        index: usize,
+    },
+    /// A serialised model could not be parsed.
+    #[error("cannot parse the model: {0}")]
+    Parse(String),
+    /// A serialised model parsed but is inconsistent.
+    #[error("invalid model: {0}")]
+    InvalidModel(String),
+    /// The model has another format version.
+    #[error("model format version {found}, this build reads version {expected}")]
+    Version {
+        /// Version in the file.
+        found: u32,
+        /// Version this build reads.
+        expected: u32,
+    },
+}
+
+/// Smallest standard deviation a feature is scaled by (HOG features lie in [0, 1] and
+/// typically spread by 0.05 to 0.2).
+pub const MIN_FEATURE_STD: f64 = 1e-2;
+
+/// Per-feature standardisation: `(x − mean) × inv_std`.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Standardiser {
+    pub(crate) mean: Vec<f32>,
+    pub(crate) inv_std: Vec<f32>,
+}
+
+impl Standardiser {
+    /// Mean and inverse standard deviation of each feature. Spreads below
+    /// [`MIN_FEATURE_STD`] count as that value, so that a feature that is (nearly) constant
+    /// in training cannot dominate distances when it moves at prediction time.
+    pub(crate) fn fit<F: AsRef<[f32]>>(features: &[F], dim: usize) -> Self {
+        let n = features.len().max(1) as f64;
+        let mut mean = vec![0.0f64; dim];
+        let mut sq = vec![0.0f64; dim];
+        for f in features {
+            for (k, &v) in f.as_ref().iter().enumerate() {
+                mean[k] += f64::from(v);
+                sq[k] += f64::from(v) * f64::from(v);
+            }
+        }
+        let mut inv_std = vec![1.0f32; dim];
+        for k in 0..dim {
+            mean[k] /= n;
+            let var = (sq[k] / n - mean[k] * mean[k]).max(0.0);
+            inv_std[k] = (1.0 / var.sqrt().max(MIN_FEATURE_STD)) as f32;
+        }
+        Self {
+            mean: mean.into_iter().map(|m| m as f32).collect(),
+            inv_std,
+        }
+    }
+
+    /// Standardises one vector into `out`.
+    pub(crate) fn apply_into(&self, x: &[f32], out: &mut [f32]) {
+        for (((o, &v), &m), &s) in out.iter_mut().zip(x).zip(&self.mean).zip(&self.inv_std) {
+            *o = (v - m) * s;
+        }
+    }
+}
+
+/// Dot product with eight accumulators so that the compiler vectorises it.
+pub(crate) fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    let (ac, ar) = a.split_at(a.len() / 8 * 8);
+    let (bc, br) = b.split_at(ac.len().min(b.len()));
+    for (x, y) in ac.chunks_exact(8).zip(bc.chunks_exact(8)) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let tail: f32 = ar.iter().zip(br).map(|(x, y)| x * y).sum();
+    acc.iter().sum::<f32>() + tail
+}
 
 /// Version of the serialised model format this build reads and writes.
 pub const MODEL_VERSION: u32 = 1;
@@ -316,59 +438,16 @@ impl Model {
     }
 }
 
-const BASE64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-
 /// Base64 (standard alphabet, padded) of the little-endian bytes of `values`.
 fn encode_f32(values: &[f32]) -> String {
     let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(char::from(BASE64[((n >> (18 - 6 * k)) & 63) as usize]));
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
+    BASE64.encode(bytes)
 }
 
 /// Inverse of [`encode_f32`]; `field` names the field in errors.
 fn decode_f32(text: &str, field: &str) -> Result<Vec<f32>, SvmError> {
     let bad = || SvmError::Parse(format!("field {field} is not base64 of f32 values"));
-    let text = text.as_bytes();
-    if !text.len().is_multiple_of(4) {
-        return Err(bad());
-    }
-    let mut bytes = Vec::with_capacity(text.len() / 4 * 3);
-    for chunk in text.chunks_exact(4) {
-        let mut n = 0u32;
-        let mut pad = 0;
-        for &c in chunk {
-            let v = match c {
-                b'A'..=b'Z' => c - b'A',
-                b'a'..=b'z' => c - b'a' + 26,
-                b'0'..=b'9' => c - b'0' + 52,
-                b'+' => 62,
-                b'/' => 63,
-                b'=' => {
-                    pad += 1;
-                    0
-                }
-                _ => return Err(bad()),
-            };
-            n = (n << 6) | u32::from(v);
-        }
-        let decoded = [(n >> 16) as u8, (n >> 8) as u8, n as u8];
-        bytes.extend_from_slice(&decoded[..3 - pad.min(2)]);
-    }
+    let bytes = BASE64.decode(text).map_err(|_| bad())?;
     if !bytes.len().is_multiple_of(4) {
         return Err(bad());
     }

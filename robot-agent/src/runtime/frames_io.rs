@@ -9,7 +9,7 @@
 //!   `foxglove.RawImage` (`{timestamp, frame_id, width, height, encoding: "rgb8" | "bgr8" |
 //!   "mono8", step, data: base64}`). The camera is the topic's (or else the frame id's)
 //!   `left` / `right`.
-//! - `/robot/state`: `rf.RobotFrameState`, [`RobotState`]: the pose, its covariance and the
+//! - `/robot/state`: `rf.RobotFrameState`, [`RobotState`](crate::runtime::frame::RobotState): the pose, its covariance and the
 //!   head joints at a stamp. Each image takes the latest state at or before its capture
 //!   (or the first one).
 //!
@@ -18,11 +18,12 @@
 
 use crate::image::RgbImage;
 use crate::io::ros_msg::Encoding;
+use crate::runtime::frame::{McapImage, RobotState, StoredFrame};
 use crate::runtime::ros_frames::{RosMessage, RosStates, RosTopics};
 use anyhow::{Context, Result, bail};
 use base64::Engine;
 use base64::engine::general_purpose::STANDARD as BASE64;
-use proto::{Camera, HeadJoints, Pose2, Stamp};
+use proto::{Camera, Stamp};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
@@ -38,27 +39,6 @@ pub struct FrameRecord {
     /// Capture time, nanoseconds since the UNIX epoch.
     pub stamp: Stamp,
     #[serde(flatten)]
-    pub state: RobotState,
-}
-
-/// The robot's state at a capture: what projection needs besides the image.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RobotState {
-    #[serde(default)]
-    pub state_stamp: Option<Stamp>,
-    pub pose: Pose2,
-    /// Row-major 3×3 covariance of (x, y, θ).
-    pub pose_covariance: [f64; 9],
-    pub head: HeadJoints,
-}
-
-/// A frame read from disk.
-#[derive(Debug, Clone)]
-pub struct StoredFrame {
-    pub stamp: Stamp,
-    pub camera: Camera,
-    pub image: RgbImage,
     pub state: RobotState,
 }
 
@@ -299,63 +279,6 @@ pub struct McapFrames {
     pub skipped: BTreeMap<String, u64>,
 }
 
-/// An image message, decoded when its frame is processed.
-#[derive(Debug, Clone)]
-pub enum McapImage {
-    Compressed(Vec<u8>),
-    Raw {
-        width: u32,
-        height: u32,
-        encoding: String,
-        step: u32,
-        data: Vec<u8>,
-    },
-}
-
-impl McapImage {
-    pub fn decode(&self) -> Result<RgbImage> {
-        match self {
-            McapImage::Compressed(bytes) => {
-                crate::io::image_io::decode_rgb(bytes).map_err(Into::into)
-            }
-            McapImage::Raw {
-                width,
-                height,
-                encoding,
-                step,
-                data,
-            } => raw_to_rgb(*width, *height, encoding, *step, data),
-        }
-    }
-}
-
-fn raw_to_rgb(width: u32, height: u32, encoding: &str, step: u32, data: &[u8]) -> Result<RgbImage> {
-    let channels = match encoding {
-        "rgb8" | "bgr8" => 3,
-        "mono8" => 1,
-        other => bail!("raw image encoding {other:?} is not rgb8, bgr8 or mono8"),
-    };
-    let (w, h, step) = (width as usize, height as usize, step as usize);
-    if step < w * channels || data.len() < step * h.saturating_sub(1) + w * channels {
-        bail!(
-            "raw image of {width}×{height} ({encoding}, step {step}) holds only {} bytes",
-            data.len()
-        );
-    }
-    let mut rgb = Vec::with_capacity(w * h * 3);
-    for y in 0..h {
-        let row = &data[y * step..y * step + w * channels];
-        match encoding {
-            "rgb8" => rgb.extend_from_slice(row),
-            "bgr8" => row
-                .chunks_exact(3)
-                .for_each(|p| rgb.extend_from_slice(&[p[2], p[1], p[0]])),
-            _ => row.iter().for_each(|&v| rgb.extend_from_slice(&[v, v, v])),
-        }
-    }
-    Ok(RgbImage::new(width, height, rgb)?)
-}
-
 fn camera_of(topic: &str, frame_id: &str) -> Option<Camera> {
     for text in [topic, frame_id] {
         let t = text.to_ascii_lowercase();
@@ -478,15 +401,5 @@ mod tests {
         let rec: FrameRecord = serde_json::from_str(line).unwrap();
         assert_eq!(rec.camera, Camera::Left);
         assert!(rec.state.pose_covariance[0] > 0.0);
-    }
-
-    #[test]
-    fn raw_images_convert_and_short_buffers_are_refused() {
-        let rgb = raw_to_rgb(2, 1, "bgr8", 6, &[1, 2, 3, 4, 5, 6]).unwrap();
-        assert_eq!(rgb.data(), &[3, 2, 1, 6, 5, 4]);
-        let mono = raw_to_rgb(2, 1, "mono8", 2, &[7, 9]).unwrap();
-        assert_eq!(mono.data(), &[7, 7, 7, 9, 9, 9]);
-        assert!(raw_to_rgb(2, 2, "rgb8", 6, &[0; 8]).is_err());
-        assert!(raw_to_rgb(2, 1, "yuv422", 4, &[0; 4]).is_err());
     }
 }

@@ -13,7 +13,7 @@
 //! ones are dropped and counted, as are messages that cannot be decoded.
 
 use crate::io::ros_msg::{self, Encoding, Header};
-use crate::runtime::frames_io::{RobotState, StoredFrame};
+use crate::runtime::frame::{RobotState, StoredFrame};
 use crate::runtime::ros_frames::{OdomPose, RosTopics, robot_state};
 use crate::runtime::source::FrameSource;
 use anyhow::{Context, Result};

@@ -5,7 +5,8 @@
 use crate::agent::{Agent, FrameInput, FrameOutcome};
 use crate::image::RgbImage;
 use crate::runtime::RunArgs;
-use crate::runtime::frames_io::{FolderWriter, McapFrameWriter, StoredFrame};
+use crate::runtime::frame::StoredFrame;
+use crate::runtime::frames_io::{FolderWriter, McapFrameWriter};
 use crate::runtime::source::FrameSource;
 use crate::runtime::timer::StageTimer;
 use crate::runtime::wall_now;

@@ -13,7 +13,7 @@ use anyhow::{Context, Result, bail};
 use proto::{Camera, HeadJoints, Pose2, Stamp};
 use std::collections::BTreeMap;
 
-use crate::runtime::frames_io::{McapImage, RobotState};
+use crate::runtime::frame::{McapImage, RobotState};
 
 /// The topics of a MiRo's ROS recording.
 #[derive(Debug, Clone, clap::Args)]

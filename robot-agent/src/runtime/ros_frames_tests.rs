@@ -53,7 +53,7 @@ fn image(cdr: bool, at: (u32, u32), frame_id: &str, cx: u32) -> Vec<u8> {
     fx::compressed_image(cdr, at, frame_id, "png", &disc_png(cx))
 }
 
-fn all_frames(path: PathBuf, topics: &RosTopics) -> Vec<crate::runtime::frames_io::StoredFrame> {
+fn all_frames(path: PathBuf, topics: &RosTopics) -> Vec<crate::runtime::frame::StoredFrame> {
     let mut source = McapSource::open(path, topics).unwrap();
     let mut out = Vec::new();
     while let Some(c) = source.next_frame().unwrap() {
@@ -256,11 +256,11 @@ fn json_recordings_still_read() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("json.mcap");
     let png = disc_png(20);
-    let frame = crate::runtime::frames_io::StoredFrame {
+    let frame = crate::runtime::frame::StoredFrame {
         stamp: Stamp(ns(T0_S, 9)),
         camera: Camera::Right,
         image: crate::io::image_io::decode_rgb(&png).unwrap(),
-        state: crate::runtime::frames_io::RobotState {
+        state: crate::runtime::frame::RobotState {
             state_stamp: Some(Stamp(ns(T0_S, 9))),
             pose: Pose2 {
                 x_m: 1.0,

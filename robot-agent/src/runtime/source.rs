@@ -2,8 +2,9 @@
 //! ROS topics over Zenoh ([`crate::runtime::live_ros`]). Another crate brings its own source
 //! by implementing [`FrameSource`].
 
+use crate::runtime::frame::StoredFrame;
 use crate::runtime::frames_io::{
-    FrameRecord, McapFrames, StoredFrame, load_image, read_index, read_mcap, state_at,
+    FrameRecord, McapFrames, load_image, read_index, read_mcap, state_at,
 };
 use crate::runtime::ros_frames::{RosTopics, RosTrack};
 use anyhow::{Context, Result, bail};
