@@ -207,19 +207,17 @@ impl Collector for Snapshot {
             "gauge",
             "1 while this server publishes the ball; 0 while it stands by for a server of the same prefix with a smaller id.",
         );
-        active.sample(
-            encoder.encode_descriptor(active.name, active.help, None, MetricType::Gauge)?,
-            self.active,
-        )?;
         let suspect = Family::new(
             "rf_robots_clock_suspect",
             "gauge",
             "Robots whose estimated clock offset exceeds the warning threshold.",
         );
-        suspect.sample(
-            encoder.encode_descriptor(suspect.name, suspect.help, None, MetricType::Gauge)?,
-            self.clock_suspect,
-        )?;
+        for (f, v) in [(active, self.active), (suspect, self.clock_suspect)] {
+            f.sample(
+                encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?,
+                v,
+            )?;
+        }
         self.latency.encode(encoder.encode_descriptor(
             "rf_obs_to_state_latency_seconds",
             "From an observation's arrival to the publication of a state that includes it.",
