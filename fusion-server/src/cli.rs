@@ -3,7 +3,8 @@
 use crate::clock::SystemClock;
 use crate::matchlog::replay::TimeArg;
 use crate::shell::args::{
-    ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
+    ServeArgs, as_match_log, bind_foxglove, bind_http, finish_log, serve_config, shutdown_signal,
+    start_log,
 };
 use crate::shell::serve;
 use anyhow::Result;
@@ -86,6 +87,7 @@ async fn serve_cmd(a: ServeArgs) -> Result<()> {
     let (cfg, rec) = serve_config(&a)?;
     cfg.check_security()?;
     let http = bind_http(&cfg.http).await?;
+    let foxglove = bind_foxglove(cfg.foxglove).await?;
     let log = start_log(rec)?;
     let live = serve::shared(&cfg, Arc::new(SystemClock), as_match_log(&log))?;
     println!("http://{}/", http.local_addr()?);
@@ -96,7 +98,10 @@ async fn serve_cmd(a: ServeArgs) -> Result<()> {
     if cfg.net.is_secured() {
         println!("zenoh TLS with mutual authentication; access control from the roster");
     }
-    let served = serve::serve(cfg, live, http, shutdown_signal()).await;
+    if let Some(f) = &foxglove {
+        println!("foxglove ws://{}", f.local_addr()?);
+    }
+    let served = serve::serve_all(cfg, live, http, foxglove, shutdown_signal()).await;
     finish_log(log)?;
     served
 }

@@ -45,6 +45,7 @@ mod engine;
 mod estimator;
 mod matchlog;
 mod query;
+mod scene;
 mod security;
 mod shell;
 
@@ -67,8 +68,9 @@ pub use security::keys::{Authority, Issued, KeysError, Validity};
 pub use security::node_dir::write as write_node_dir;
 pub use security::{robot_common_name, server_common_name};
 pub use shell::args::{
-    ServeArgs, as_match_log, bind_http, finish_log, serve_config, shutdown_signal, start_log,
+    ServeArgs, as_match_log, bind_foxglove, bind_http, finish_log, serve_config, shutdown_signal,
+    start_log,
 };
 pub use shell::config::{ConfigError, PitchFlags, Settings};
 pub use shell::http::guard::HttpLimits;
-pub use shell::serve::{ServeConfig, Shared, serve, shared};
+pub use shell::serve::{ServeConfig, Shared, serve, serve_all, shared};

@@ -8,7 +8,7 @@ pub mod record;
 pub mod replay;
 mod writer;
 
-pub use writer::{McapLog, RecorderSink};
+pub use writer::{McapLog, RecorderSink, schema_name, schemas};
 
 use proto::Stamp;
 use std::fmt::Debug;
@@ -19,6 +19,10 @@ pub enum LogKind {
     Observation,
     Status,
     BallState,
+    /// A Foxglove `SceneUpdate` of the match ([`crate::scene`]).
+    Scene,
+    /// Foxglove `FrameTransforms`: each robot's frame.
+    Transforms,
 }
 
 /// A match log that never blocks the caller.

@@ -2,11 +2,12 @@
 //! ([`serve`]), which publishes only while this server is the active one of its prefix
 //! ([`standby`]), observations taken off the network threads ([`intake`]) into the shared
 //! state ([`live`]), HTTP and the live stream ([`http`], whose [`http::guard`] bounds
-//! connections), [`metrics`], Zenoh settings ([`net`]) and the settings of a server from
+//! connections), the Foxglove WebSocket ([`foxglove`]), [`metrics`], Zenoh settings ([`net`]) and the settings of a server from
 //! its file and flags ([`config`], [`args`]).
 
 pub mod args;
 pub mod config;
+pub mod foxglove;
 pub mod http;
 pub mod intake;
 pub mod live;

@@ -409,6 +409,95 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
     s.stop().await
 }
 
+/// A Foxglove client that subscribes and then stops reading is dropped after the send
+/// timeout, and what it missed is counted; the server goes on publishing.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_stuck_foxglove_client_is_dropped_and_counted() -> anyhow::Result<()> {
+    use fusion_server::HttpLimits;
+    use futures_util::{SinkExt, StreamExt};
+    use tokio_tungstenite::tungstenite::{Message, client::IntoClientRequest};
+    let s = TestServer::start_with_foxglove(
+        "h-fox",
+        with_http(HttpLimits {
+            ws_send_timeout_s: 0.3,
+            ..HttpLimits::default()
+        }),
+    )
+    .await?;
+    s.until_accepted("link").await?;
+    // Robots with large footprints make large scene updates, to fill the socket buffers.
+    let robots = 40;
+    for k in 0..robots {
+        let robot = format!("big{k}");
+        let mut st = status(&robot);
+        st.footprints = vec![
+            proto::CameraFootprint {
+                camera: proto::Camera::Left,
+                polygon_m: vec![[0.123_456_789, -0.987_654_321]; proto::MAX_FOOTPRINT_POINTS],
+            };
+            proto::MAX_STATUS_FOOTPRINTS
+        ];
+        s.put(&format!("rf/robots/{robot}/status"), proto::encode(&st))
+            .await?;
+    }
+    eventually("the statuses accepted", || {
+        s.live
+            .with_engine(|e| (e.counters().statuses_accepted == robots).then_some(()))
+    })
+    .await;
+    let addr = s.foxglove.expect("a Foxglove listener");
+    let mut request = format!("ws://{addr}/").into_client_request()?;
+    request
+        .headers_mut()
+        .insert("Sec-WebSocket-Protocol", "foxglove.websocket.v1".parse()?);
+    let (mut stuck, _) = tokio_tungstenite::connect_async(request).await?;
+    // Subscribe to every channel it is told of until the scene is among them, then read no more.
+    let mut subscribed_scene = false;
+    while !subscribed_scene {
+        let msg = tokio::time::timeout(Duration::from_secs(20), stuck.next())
+            .await?
+            .ok_or_else(|| anyhow::anyhow!("closed"))??;
+        if let Message::Text(t) = msg {
+            let v: serde_json::Value = serde_json::from_str(t.as_str())?;
+            if v["op"] == "advertise" {
+                let subs: Vec<_> = v["channels"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .map(|c| serde_json::json!({"id": c["id"], "channelId": c["id"]}))
+                    .collect();
+                subscribed_scene |= v["channels"]
+                    .as_array()
+                    .is_some_and(|cs| cs.iter().any(|c| c["topic"] == "/scene"));
+                let sub = serde_json::json!({"op": "subscribe", "subscriptions": subs});
+                stuck.send(Message::Text(sub.to_string().into())).await?;
+            }
+        }
+    }
+    eventually("the stuck client dropped", || {
+        (s.metric("rf_foxglove_send_timeouts_total") >= Some(1.0)).then_some(())
+    })
+    .await;
+    eventually("no client left", || {
+        (s.metric("rf_foxglove_clients") == Some(0.0)).then_some(())
+    })
+    .await;
+    assert!(s.metric("rf_foxglove_messages_sent_total") >= Some(1.0));
+    assert!(s.metric("rf_foxglove_messages_dropped_total") >= Some(1.0));
+    // A new client is served as before.
+    let mut request = format!("ws://{addr}/").into_client_request()?;
+    request
+        .headers_mut()
+        .insert("Sec-WebSocket-Protocol", "foxglove.websocket.v1".parse()?);
+    let (mut fresh, _) = tokio_tungstenite::connect_async(request).await?;
+    let first = tokio::time::timeout(Duration::from_secs(10), fresh.next())
+        .await?
+        .ok_or_else(|| anyhow::anyhow!("closed"))??;
+    assert!(first.to_text()?.contains("serverInfo"), "{first:?}");
+    drop(stuck);
+    s.stop().await
+}
+
 /// A robot whose clock is 200 ms behind the server's shows that offset in /api/robots and
 /// /metrics and is marked suspect; a robot on time is not.
 #[tokio::test(flavor = "multi_thread")]

@@ -149,3 +149,106 @@ async fn observations_in_states_and_answers_out() -> anyhow::Result<()> {
     client.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())
 }
+
+/// A robot program's typed view (`proto::client`) against a real server: the server found,
+/// states read, a prediction and an intercept asked, refusals and a missing server told
+/// clearly.
+#[tokio::test(flavor = "multi_thread")]
+async fn a_robot_program_reads_the_ball_through_the_typed_client() -> anyhow::Result<()> {
+    use proto::client::{BallClient, ClientError};
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let cfg = ServeConfig {
+        server_id: "typed".into(),
+        net: NetConfig::listening(&endpoint),
+        state_rate_hz: 50.0,
+        ..ServeConfig::default()
+    };
+    let live = fusion_server::shared(&cfg, Arc::new(SystemClock), None)?;
+    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
+    let server = tokio::spawn(fusion_server::serve(cfg, live.clone(), http, async move {
+        let _ = stop_rx.wait_for(|s| *s).await;
+    }));
+
+    let client = BallClient::connect(&NetConfig::connecting(&endpoint), "rf").await?;
+    assert_eq!(
+        client.wait_for_server(Duration::from_secs(20)).await?,
+        "typed"
+    );
+    let mut states = client.subscribe().await?;
+
+    // A robot sees the ball rolling along +x.
+    let robot = NetConfig::connecting(&endpoint).open().await?;
+    let publisher = robot
+        .declare_publisher("rf/robots/tc1/obs")
+        .congestion_control(zenoh::qos::CongestionControl::Block)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    // The link up before publishing (a put before it would go nowhere).
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    while robot.info().peers_zid().await.next().is_none() {
+        assert!(tokio::time::Instant::now() < deadline, "no link");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let t0 = SystemClock.now();
+    for k in 0..30u64 {
+        let o = obs(
+            "tc1",
+            k,
+            t0.offset_secs(k as f64 * 0.02),
+            0.2 + 0.006 * k as f64,
+        );
+        publisher
+            .put(proto::encode(&o))
+            .await
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    let state = tokio::time::timeout(Duration::from_secs(10), states.next())
+        .await?
+        .expect("a state");
+    assert!(
+        (state.position_m[1] + 0.3).abs() < 0.05,
+        "{:?}",
+        state.position_m
+    );
+    assert_eq!(states.rejected(), 0);
+
+    let p = client.predict(1.0).await?;
+    assert_eq!(p.horizon_s, 1.0);
+    assert!(p.samples.windows(2).all(|w| w[0].t_s <= w[1].t_s));
+    let i = client.intercept("tc1", Some(0.4)).await?;
+    assert_eq!(i.robot_id, "tc1");
+    match client.intercept("nobody", None).await {
+        Err(ClientError::Refused { message, .. }) => {
+            assert!(message.contains("nobody"), "{message}")
+        }
+        other => panic!("an unknown robot is refused, got {other:?}"),
+    }
+    assert!(matches!(
+        client.predict(f64::NAN).await,
+        Err(ClientError::BadParameter(_))
+    ));
+    assert!(client.intercept("not an id", None).await.is_err());
+
+    // Nothing listens here: a clear error, in about the time given.
+    let nowhere = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let lonely = BallClient::connect(&NetConfig::connecting(&nowhere), "rf").await?;
+    let asked = std::time::Instant::now();
+    let err = lonely
+        .wait_for_server(Duration::from_millis(800))
+        .await
+        .expect_err("no server");
+    assert!(
+        asked.elapsed() < Duration::from_secs(5),
+        "{:?}",
+        asked.elapsed()
+    );
+    assert!(err.to_string().contains(&nowhere), "{err}");
+    lonely.close().await?;
+
+    let _ = stop_tx.send(true);
+    server.await??;
+    client.close().await?;
+    robot.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(())
+}

@@ -2,11 +2,15 @@
 //!
 //! Everything that crosses a process boundary is defined here: message types (JSON via
 //! serde), key expressions, validation of inbound data and the JSON Schemas generated from
-//! the types. No I/O happens in this crate.
+//! the types. No I/O happens in this crate, except behind the `zenoh` feature: the session
+//! settings every process shares (`proto::net`) and a robot program's typed view of the ball
+//! (`proto::client`).
 //!
 //! Units are SI and appear in field names (`position_m`, `velocity_mps`). The field frame
 //! has its origin at the pitch centre, x along the long side, y to the left of +x, z up.
 
+#[cfg(feature = "zenoh")]
+pub mod client;
 mod codec;
 mod keys;
 mod messages;

@@ -80,6 +80,8 @@ pub fn offline(a: ReplayArgs) -> Result<()> {
         at: a.at.clone(),
         align: a.align,
         until: a.until,
+        // A new log gets the match drawn for Foxglove (an older log's scene is replaced).
+        scene: !a.no_log,
     };
     let start = messages.first().map(|m| m.log_time).unwrap_or(Stamp(0));
     let log = if a.no_log {

@@ -32,10 +32,10 @@ pub const MAX_PAYLOAD_BYTES: usize = 32 << 20;
 /// The largest [`RecorderConfig::chunk_size_bytes`] accepted, for the same reason.
 pub const MAX_CHUNK_SIZE_BYTES: u64 = 32 << 20;
 
-/// Message encoding of every channel.
+/// Message encoding of the wire messages' channels.
 pub const MESSAGE_ENCODING: &str = "json";
 
-/// Schema encoding of every schema.
+/// Schema encoding of the wire messages' schemas.
 pub const SCHEMA_ENCODING: &str = "jsonschema";
 
 /// Name of the metadata record at the start of every file.
@@ -146,22 +146,44 @@ impl RecorderConfig {
     }
 }
 
-/// A named JSON Schema, written once per file as an MCAP schema record. Shared between
-/// records as `Arc<Schema>`.
+/// A named schema, written once per file as an MCAP schema record, with the encoding of
+/// its channels' messages. Shared between records as `Arc<Schema>`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Schema {
     /// Schema name, e.g. `Observation`; one schema record per name and file.
     pub name: String,
-    /// The JSON Schema document as UTF-8 JSON.
-    pub json: Vec<u8>,
+    /// How `data` is written: `jsonschema` or `protobuf`.
+    pub encoding: String,
+    /// The schema itself: a JSON Schema document as UTF-8 JSON, or a serialised protobuf
+    /// `FileDescriptorSet`.
+    pub data: Vec<u8>,
+    /// How messages of this schema are encoded: `json` or `protobuf`.
+    pub message_encoding: String,
 }
 
 impl Schema {
-    /// A schema from its name and JSON text.
+    /// A JSON Schema from its name and JSON text, for JSON messages.
     pub fn new(name: impl Into<String>, json: impl Into<Vec<u8>>) -> Self {
         Self {
             name: name.into(),
-            json: json.into(),
+            encoding: SCHEMA_ENCODING.into(),
+            data: json.into(),
+            message_encoding: MESSAGE_ENCODING.into(),
+        }
+    }
+
+    /// A schema with other encodings (Foxglove's protobuf messages, say).
+    pub fn encoded(
+        name: impl Into<String>,
+        encoding: impl Into<String>,
+        data: impl Into<Vec<u8>>,
+        message_encoding: impl Into<String>,
+    ) -> Self {
+        Self {
+            name: name.into(),
+            encoding: encoding.into(),
+            data: data.into(),
+            message_encoding: message_encoding.into(),
         }
     }
 }
@@ -203,7 +225,7 @@ pub struct Record {
     pub log_time: Stamp,
     /// When the message was published (for observations, their capture time).
     pub publish_time: Stamp,
-    /// The message as JSON.
+    /// The message in its schema's message encoding.
     pub payload: Vec<u8>,
 }
 
@@ -343,7 +365,7 @@ mod tests {
         let schemas = proto_schemas();
         assert!(schemas.iter().any(|s| s.name == "Observation"));
         for s in &schemas {
-            assert!(s.json.starts_with(b"{"), "{}", s.name);
+            assert!(s.data.starts_with(b"{"), "{}", s.name);
         }
     }
 }

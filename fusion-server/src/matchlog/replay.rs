@@ -11,6 +11,7 @@
 use crate::engine::{Engine, EngineConfig};
 use crate::estimator::FusionCounters;
 use crate::matchlog::read::LogMessage;
+use crate::scene::{self, Scene};
 use proto::{BallState, KeySpace, ModelParams, Stamp};
 use std::collections::BTreeMap;
 
@@ -92,6 +93,10 @@ pub struct ReplayReport {
     pub other: u64,
     /// Match time covered, from the first to the last message.
     pub span_s: f64,
+    /// Scene messages written ([`ReplayOptions::scene`]).
+    pub scene_written: u64,
+    /// Scene messages of the log left out (drawn anew when the scene is asked for).
+    pub scene_replaced: u64,
 }
 
 /// Replay options. The states are computed at every recorded state (and compared), and:
@@ -111,6 +116,9 @@ pub struct ReplayOptions {
     /// The grid ends here (included), past the last message if need be (default: at the
     /// last message).
     pub until: Option<TimeArg>,
+    /// Draw the match as a Foxglove scene ([`crate::scene`]) beside the states, every
+    /// [`scene::SCENE_PERIOD_S`] of match time. A log's own scene is never copied.
+    pub scene: bool,
 }
 
 impl Default for ReplayOptions {
@@ -122,6 +130,7 @@ impl Default for ReplayOptions {
             at: Vec::new(),
             align: None,
             until: None,
+            scene: false,
         }
     }
 }
@@ -132,18 +141,32 @@ pub enum ReplayError {
     Prefix(#[from] proto::KeyError),
 }
 
-/// The state at `at`, handed to the sink when `asked`, written and counted; its payload.
+/// Where a replay writes: the sink, the scene (when drawn) and the report.
+struct Out<'s> {
+    sink: &'s mut dyn ReplaySink,
+    scene: Option<Scene>,
+    report: ReplayReport,
+}
+
+/// The state at `at`, handed to the sink when `asked`, written and counted (with the scene
+/// when due); its payload.
 fn emit_state(
     engine: &Engine,
     keys: &KeySpace,
     at: Stamp,
     asked: bool,
-    sink: &mut dyn ReplaySink,
-    report: &mut ReplayReport,
+    out: &mut Out,
 ) -> Option<Vec<u8>> {
     let state = engine.ball_state(at);
+    let (sink, report) = (&mut *out.sink, &mut out.report);
     if asked {
         sink.state(at, state.as_ref());
+    }
+    if let Some(scene) = &mut out.scene {
+        for r in scene.tick(engine, at, state.as_ref()) {
+            sink.write(r.topic, r.schema, r.log_time, &r.payload);
+            report.scene_written += 1;
+        }
     }
     let Some(state) = state else {
         report.states_without_estimate += 1;
@@ -179,15 +202,19 @@ pub fn replay(
 ) -> Result<ReplayReport, ReplayError> {
     let keys = KeySpace::new(&opts.prefix)?;
     let mut engine = Engine::new(opts.engine.clone());
-    let mut report = ReplayReport {
-        messages: messages.len(),
-        ..ReplayReport::default()
+    let mut out = Out {
+        sink,
+        scene: opts.scene.then(Scene::new),
+        report: ReplayReport {
+            messages: messages.len(),
+            ..ReplayReport::default()
+        },
     };
     let has_states = messages.iter().any(|m| m.schema_name == "BallState");
     let mut times = schedule(opts, messages, has_states);
     let (first, last) = (messages.first(), messages.last());
     if let (Some(a), Some(b)) = (first, last) {
-        report.span_s = b.log_time.secs_since(a.log_time).max(0.0);
+        out.report.span_s = b.log_time.secs_since(a.log_time).max(0.0);
     }
     for (i, m) in messages.iter().enumerate() {
         if i % 4096 == 0 {
@@ -195,29 +222,30 @@ pub fn replay(
         }
         let at = m.log_time;
         while let Some(t) = times.next_before(Some(at)) {
-            emit_state(&engine, &keys, t, true, sink, &mut report);
+            emit_state(&engine, &keys, t, true, &mut out);
         }
         let robot = keys.robot_id_of(&m.topic);
         match m.schema_name.as_str() {
             "Observation" => {
-                report.observations += 1;
+                out.report.observations += 1;
                 if engine.observation(robot, &m.data, at).is_ok() {
-                    report.observations_accepted += 1;
+                    out.report.observations_accepted += 1;
                 }
                 for e in engine.take_events() {
                     tracing::info!("{e}");
                 }
-                sink.write(&m.topic, &m.schema_name, at, &m.data);
+                out.sink.write(&m.topic, &m.schema_name, at, &m.data);
             }
             "RobotStatus" => {
-                report.statuses += 1;
+                out.report.statuses += 1;
                 let _ = engine.status(robot, &m.data, at);
-                sink.write(&m.topic, &m.schema_name, at, &m.data);
+                out.sink.write(&m.topic, &m.schema_name, at, &m.data);
             }
             "BallState" => {
-                report.states_recorded += 1;
+                out.report.states_recorded += 1;
                 let asked = times.asks_nothing();
-                let now = emit_state(&engine, &keys, at, asked, sink, &mut report);
+                let now = emit_state(&engine, &keys, at, asked, &mut out);
+                let report = &mut out.report;
                 if now.as_deref() == Some(m.data.as_slice()) {
                     report.states_identical += 1;
                 } else if report.first_difference.is_none() {
@@ -231,17 +259,20 @@ pub fn replay(
                     ));
                 }
             }
+            // The log's own scene: drawn anew (when asked), never copied beside a new one.
+            name if scene::is_scene_schema(name) => out.report.scene_replaced += 1,
             _ => {
-                report.other += 1;
-                sink.write(&m.topic, &m.schema_name, at, &m.data);
+                out.report.other += 1;
+                out.sink.write(&m.topic, &m.schema_name, at, &m.data);
             }
         }
     }
     // Due at or after the last message: the ball coasting on, stopping, lost.
     while let Some(t) = times.next_before(None) {
-        emit_state(&engine, &keys, t, true, sink, &mut report);
+        emit_state(&engine, &keys, t, true, &mut out);
     }
     progress(messages.len(), messages.len());
+    let mut report = out.report;
     report.rejected = engine.counters().rejected.clone();
     report.fusion = engine.fusion().counters();
     report.model = last

@@ -9,19 +9,24 @@ use proto::Stamp;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-/// The schemas a match log uses, by name: the wire messages.
+/// The schemas a match log uses, by name: the wire messages (JSON) and the scene's
+/// (Foxglove's protobuf messages).
 pub fn schemas() -> HashMap<String, Arc<Schema>> {
     crate::matchlog::record::proto_schemas()
         .into_iter()
+        .chain(crate::scene::schemas())
         .map(|s| (s.name.clone(), s))
         .collect()
 }
 
-fn schema_name(kind: LogKind) -> &'static str {
+/// The schema a kind of message is logged with.
+pub fn schema_name(kind: LogKind) -> &'static str {
     match kind {
         LogKind::Observation => "Observation",
         LogKind::Status => "RobotStatus",
         LogKind::BallState => "BallState",
+        LogKind::Scene => crate::scene::SCENE_SCHEMA,
+        LogKind::Transforms => crate::scene::TRANSFORMS_SCHEMA,
     }
 }
 

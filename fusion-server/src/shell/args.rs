@@ -78,6 +78,10 @@ pub struct ServeArgs {
     /// `Authorization: Bearer TOKEN`; without it only this machine may use them.
     #[arg(long, value_name = "TOKEN")]
     pub control_token: Option<String>,
+    /// Serve the match to Foxglove (its WebSocket protocol) on PORT or HOST:PORT: the 3D
+    /// scene and the raw channels, live. A port alone listens on this machine only.
+    #[arg(long, value_name = "ADDR")]
+    pub foxglove: Option<String>,
     #[command(flatten)]
     pub pitch: PitchFlags,
 }
@@ -102,6 +106,7 @@ impl ServeArgs {
             }
         }
         set(&mut s.http, &self.http);
+        set(&mut s.foxglove, &self.foxglove);
         set(&mut s.server_id, &self.id);
         set(&mut s.prefix, &self.prefix);
         set(&mut s.state_rate_hz, &self.rate_hz);
@@ -226,6 +231,17 @@ pub async fn shutdown_signal() {
         _ = ctrl_c => {}
         _ = term => {}
     }
+}
+
+/// The Foxglove WebSocket's listener, when one is configured.
+pub async fn bind_foxglove(
+    addr: Option<std::net::SocketAddr>,
+) -> Result<Option<tokio::net::TcpListener>> {
+    let Some(addr) = addr else { return Ok(None) };
+    let l = tokio::net::TcpListener::bind(addr).await.with_context(|| {
+        format!("cannot listen for Foxglove on {addr} (choose another with --foxglove)")
+    })?;
+    Ok(Some(l))
 }
 
 pub async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {

@@ -186,6 +186,9 @@ pub struct Settings {
     pub prefix: Option<String>,
     /// HTTP address, e.g. `127.0.0.1:8080`.
     pub http: Option<String>,
+    /// Foxglove WebSocket address, e.g. `127.0.0.1:8765` (a port alone: on loopback).
+    /// None: not served.
+    pub foxglove: Option<String>,
     pub state_rate_hz: Option<f64>,
     pub publish_on_update: Option<bool>,
     pub stream_buffer: Option<usize>,
@@ -205,6 +208,19 @@ pub struct Settings {
     pub record: RecordFile,
     pub limits: LimitsFile,
     pub clock: ClockFile,
+}
+
+/// A Foxglove WebSocket address: `HOST:PORT`, or a port alone on loopback.
+pub fn foxglove_addr(text: &str) -> Result<std::net::SocketAddr, ConfigError> {
+    let bad = |e: String| {
+        ConfigError::Invalid(format!("foxglove {text:?}: {e} (give PORT or HOST:PORT)"))
+    };
+    match text.parse::<u16>() {
+        Ok(port) => Ok(std::net::SocketAddr::from(([127, 0, 0, 1], port))),
+        Err(_) => text
+            .parse::<std::net::SocketAddr>()
+            .map_err(|e| bad(e.to_string())),
+    }
 }
 
 impl Settings {
@@ -237,6 +253,9 @@ impl Settings {
             h.parse::<std::net::SocketAddr>()
                 .map_err(|e| ConfigError::Invalid(format!("http {h:?}: {e}")))?;
             cfg.http = h.clone();
+        }
+        if let Some(f) = &self.foxglove {
+            cfg.foxglove = Some(foxglove_addr(f)?);
         }
         if let Some(t) = &self.control_token {
             if t.len() < 8 || !t.chars().all(|c| c.is_ascii_graphic()) {

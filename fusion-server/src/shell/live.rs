@@ -9,6 +9,8 @@ use crate::clock::Clock;
 use crate::engine::{Engine, EngineEvent, RecentObs, RobotView};
 use crate::matchlog::{LogKind, MatchLog};
 use crate::query::{BallQuery, QueryError, QueryReply};
+use crate::scene::{Scene, SceneRecord};
+use crate::shell::foxglove::FoxgloveHub;
 use crate::shell::metrics::ShellStats;
 use crate::shell::replay_live::{ReplayControl, ReplayStatus};
 use proto::{BallState, KeySpace, Pitch, Stamp};
@@ -37,6 +39,15 @@ pub struct StateView<'a> {
     pub replay: Option<ReplayStatus>,
 }
 
+/// The kind a scene message is logged as.
+fn scene_kind(r: &SceneRecord) -> LogKind {
+    if r.schema == crate::scene::TRANSFORMS_SCHEMA {
+        LogKind::Transforms
+    } else {
+        LogKind::Scene
+    }
+}
+
 /// How far back the view's observations go.
 pub const RECENT_WINDOW_S: f64 = 2.0;
 
@@ -63,6 +74,8 @@ struct Inner {
     engine: Engine,
     /// Arrival stamps of observations applied since the last published state.
     unpublished: Vec<Stamp>,
+    /// When the match is next drawn for the log and Foxglove.
+    scene: Scene,
 }
 
 /// Rejections are logged at most this often, all reasons together (they are always
@@ -94,6 +107,8 @@ pub struct Live {
     replay: OnceLock<Arc<ReplayControl>>,
     control_access: OnceLock<ControlAccess>,
     ws_send_timeout: OnceLock<Duration>,
+    /// The Foxglove WebSocket's channels and queue, when it is served.
+    foxglove: OnceLock<Arc<FoxgloveHub>>,
 }
 
 impl Live {
@@ -110,6 +125,7 @@ impl Live {
             inner: Mutex::new(Inner {
                 engine,
                 unpublished: Vec::new(),
+                scene: Scene::new(),
             }),
             state_key: keys.ball_state(),
             keys,
@@ -126,7 +142,19 @@ impl Live {
             replay: OnceLock::new(),
             control_access: OnceLock::new(),
             ws_send_timeout: OnceLock::new(),
+            foxglove: OnceLock::new(),
         }
+    }
+
+    /// Starts handing messages to Foxglove clients (once; `shell::foxglove`).
+    pub fn enable_foxglove(&self, name: &str) -> Arc<FoxgloveHub> {
+        self.foxglove
+            .get_or_init(|| Arc::new(FoxgloveHub::new(name)))
+            .clone()
+    }
+
+    pub fn foxglove(&self) -> Option<Arc<FoxgloveHub>> {
+        self.foxglove.get().cloned()
     }
 
     /// Hands the replay's control over (once): the control endpoints and the stream's
@@ -236,9 +264,12 @@ impl Live {
         Some(self.keys.robot_chunk_of(key).unwrap_or(key))
     }
 
-    /// Hands an accepted input to the match log. A rejected one is only counted: whoever
-    /// sends junk must not be able to fill the disk with it.
+    /// Hands an accepted input to the match log and the Foxglove clients. A rejected one is
+    /// only counted: whoever sends junk must not be able to fill the disk with it.
     fn record(&self, kind: LogKind, key: &str, now: Stamp, payload: &[u8], accepted: bool) {
+        if accepted && let Some(hub) = self.foxglove.get() {
+            hub.publish(kind, key, now, payload);
+        }
         let Some(log) = &self.log else { return };
         if accepted {
             log.log(kind, key, now, payload);
@@ -351,12 +382,33 @@ impl Live {
         if let (Some(p), Some(log)) = (&payload, &self.log) {
             log.log(LogKind::BallState, &self.state_key, now, p);
         }
+        let hub = self.foxglove.get();
+        // The scene only when someone keeps or watches it.
+        let scene = if self.log.is_some() || hub.is_some_and(|h| h.watched()) {
+            let Inner { engine, scene, .. } = &mut *inner;
+            scene.tick(engine, now, state.as_ref())
+        } else {
+            Vec::new()
+        };
+        if let Some(log) = &self.log {
+            for r in &scene {
+                log.log(scene_kind(r), r.topic, r.log_time, &r.payload);
+            }
+        }
         // The view only for watchers: nobody else needs it made at every tick.
         let view = (with_view && self.stream.receiver_count() > 0).then(|| {
             let view = self.view(&inner, now, state);
             Arc::<str>::from(serde_json::to_string(&view).unwrap_or_default())
         });
         drop(inner);
+        if let Some(hub) = hub {
+            if let Some(p) = &payload {
+                hub.publish(LogKind::BallState, &self.state_key, now, p);
+            }
+            for r in &scene {
+                hub.publish(scene_kind(r), r.topic, r.log_time, &r.payload);
+            }
+        }
         if payload.is_some() {
             if let Ok(mut h) = self.stats.obs_to_state_s.lock() {
                 for a in arrivals {

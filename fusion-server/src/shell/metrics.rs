@@ -101,6 +101,14 @@ pub struct ShellStats {
     pub standby: std::sync::atomic::AtomicBool,
     /// Live-stream clients dropped because a frame could not be sent in time.
     pub ws_send_timeouts: AtomicU64,
+    /// Foxglove WebSocket clients connected, messages sent, skipped (a client behind),
+    /// clients dropped for a send that took too long, refused (too many), bad requests.
+    pub foxglove_clients: AtomicU64,
+    pub foxglove_sent: AtomicU64,
+    pub foxglove_dropped: AtomicU64,
+    pub foxglove_send_timeouts: AtomicU64,
+    pub foxglove_refused: AtomicU64,
+    pub foxglove_bad_requests: AtomicU64,
     /// The HTTP listener's connections and deadlines.
     pub http: std::sync::Arc<crate::shell::http::guard::GuardStats>,
 }
@@ -241,7 +249,7 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 27] = [
+    let simple: [(&str, &str, &str, u64); 33] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -343,6 +351,42 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
             "counter",
             "WebSocket clients dropped because a frame could not be sent in time (the frames they missed count as dropped).",
             shell.ws_send_timeouts.load(Relaxed),
+        ),
+        (
+            "rf_foxglove_clients",
+            "gauge",
+            "Connected Foxglove WebSocket clients (serve --foxglove).",
+            shell.foxglove_clients.load(Relaxed),
+        ),
+        (
+            "rf_foxglove_messages_sent_total",
+            "counter",
+            "Messages sent to Foxglove WebSocket clients.",
+            shell.foxglove_sent.load(Relaxed),
+        ),
+        (
+            "rf_foxglove_messages_dropped_total",
+            "counter",
+            "Messages Foxglove WebSocket clients skipped, having fallen behind the bounded queue.",
+            shell.foxglove_dropped.load(Relaxed),
+        ),
+        (
+            "rf_foxglove_send_timeouts_total",
+            "counter",
+            "Foxglove WebSocket clients dropped because a message could not be sent in time.",
+            shell.foxglove_send_timeouts.load(Relaxed),
+        ),
+        (
+            "rf_foxglove_clients_refused_total",
+            "counter",
+            "Foxglove WebSocket connections refused because the most clients were connected.",
+            shell.foxglove_refused.load(Relaxed),
+        ),
+        (
+            "rf_foxglove_bad_requests_total",
+            "counter",
+            "Requests from Foxglove WebSocket clients that could not be read.",
+            shell.foxglove_bad_requests.load(Relaxed),
         ),
         (
             "rf_http_connections",

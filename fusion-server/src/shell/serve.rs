@@ -45,6 +45,8 @@ pub struct ServeConfig {
     /// Serve an open network (plain TCP, anyone may publish) knowingly: `serve` refuses
     /// to start without TLS otherwise.
     pub open: bool,
+    /// Where the Foxglove WebSocket is served (`shell::foxglove`); None: it is not.
+    pub foxglove: Option<std::net::SocketAddr>,
 }
 
 impl Default for ServeConfig {
@@ -63,6 +65,7 @@ impl Default for ServeConfig {
             servers: Vec::new(),
             routers: Vec::new(),
             open: false,
+            foxglove: None,
         }
     }
 }
@@ -191,6 +194,17 @@ pub async fn serve(
     http: tokio::net::TcpListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<()> {
+    serve_all(cfg, live, http, None, shutdown).await
+}
+
+/// [`serve`], and the Foxglove WebSocket on `foxglove` when given.
+pub async fn serve_all(
+    cfg: ServeConfig,
+    live: Shared,
+    http: tokio::net::TcpListener,
+    foxglove: Option<tokio::net::TcpListener>,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<()> {
     anyhow::ensure!(
         cfg.state_rate_hz.is_finite() && cfg.state_rate_hz > 0.0,
         "state rate must be positive, got {}",
@@ -280,6 +294,18 @@ pub async fn serve(
         })
         .await
     });
+    let foxglove_task = foxglove.map(|listener| {
+        live.enable_foxglove(&cfg.server_id);
+        let app = crate::shell::foxglove::app(live.clone());
+        let mut stop = stop_rx.clone();
+        tokio::spawn(async move {
+            axum::serve(listener, app)
+                .with_graceful_shutdown(async move {
+                    let _ = stop.wait_for(|s| *s).await;
+                })
+                .await
+        })
+    });
     tokio::spawn(async move {
         shutdown.await;
         let _ = stop_tx.send(true);
@@ -290,6 +316,13 @@ pub async fn serve(
         Ok(Ok(())) => {}
         Ok(Err(e)) => tracing::warn!("HTTP server stopped with an error: {e}"),
         Err(e) => tracing::warn!("HTTP server task failed: {e}"),
+    }
+    if let Some(task) = foxglove_task {
+        match task.await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => tracing::warn!("Foxglove server stopped with an error: {e}"),
+            Err(e) => tracing::warn!("Foxglove server task failed: {e}"),
+        }
     }
     session
         .close()

@@ -41,6 +41,8 @@ pub struct TestServer {
     pub live: Shared,
     pub endpoint: String,
     pub http: SocketAddr,
+    /// The Foxglove WebSocket's address, when served ([`TestServer::start_with_foxglove`]).
+    pub foxglove: Option<SocketAddr>,
     pub client: zenoh::Session,
     stop: tokio::sync::watch::Sender<bool>,
     task: tokio::task::JoinHandle<anyhow::Result<()>>,
@@ -59,13 +61,18 @@ impl TestServer {
         cfg: ServeConfig,
         log: Option<Arc<dyn fusion_server::MatchLog>>,
     ) -> anyhow::Result<TestServer> {
-        Self::launch(id, cfg, log, Vec::new()).await
+        Self::launch(id, cfg, log, Vec::new(), false).await
+    }
+
+    /// [`TestServer::start`], also serving the Foxglove WebSocket.
+    pub async fn start_with_foxglove(id: &str, cfg: ServeConfig) -> anyhow::Result<TestServer> {
+        Self::launch(id, cfg, None, Vec::new(), true).await
     }
 
     /// [`TestServer::start`] for a server that also connects to `peers` (other servers).
     pub async fn start_joining(id: &str, peers: &[&str]) -> anyhow::Result<TestServer> {
         let peers = peers.iter().map(|p| p.to_string()).collect();
-        Self::launch(id, ServeConfig::default(), None, peers).await
+        Self::launch(id, ServeConfig::default(), None, peers, false).await
     }
 
     async fn launch(
@@ -73,6 +80,7 @@ impl TestServer {
         cfg: ServeConfig,
         log: Option<Arc<dyn fusion_server::MatchLog>>,
         peers: Vec<String>,
+        foxglove: bool,
     ) -> anyhow::Result<TestServer> {
         let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
         let cfg = ServeConfig {
@@ -86,11 +94,17 @@ impl TestServer {
         let live = fusion_server::shared(&cfg, Arc::new(SystemClock), log)?;
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
         let http = listener.local_addr()?;
+        let foxglove = match foxglove {
+            true => Some(tokio::net::TcpListener::bind("127.0.0.1:0").await?),
+            false => None,
+        };
+        let foxglove_addr = foxglove.as_ref().map(|l| l.local_addr()).transpose()?;
         let (stop, mut stop_rx) = tokio::sync::watch::channel(false);
-        let task = tokio::spawn(fusion_server::serve(
+        let task = tokio::spawn(fusion_server::serve_all(
             cfg,
             live.clone(),
             listener,
+            foxglove,
             async move {
                 let _ = stop_rx.wait_for(|s| *s).await;
             },
@@ -100,6 +114,7 @@ impl TestServer {
             live,
             endpoint,
             http,
+            foxglove: foxglove_addr,
             client,
             stop,
             task,

@@ -12,10 +12,7 @@ use mcap::records::{MessageHeader, Metadata};
 use proto::Stamp;
 
 use super::file_name::log_file_name;
-use super::{
-    LogCompression, MESSAGE_ENCODING, METADATA_NAME, Record, RecordError, RecorderConfig,
-    SCHEMA_ENCODING,
-};
+use super::{LogCompression, METADATA_NAME, Record, RecordError, RecorderConfig};
 
 /// Bytes a message record adds to its payload: opcode and length (9), channel id (2),
 /// sequence (4), log and publish time (16).
@@ -201,7 +198,11 @@ impl OpenLog {
             None => {
                 let id = self
                     .writer
-                    .add_schema(&record.schema.name, SCHEMA_ENCODING, &record.schema.json)
+                    .add_schema(
+                        &record.schema.name,
+                        &record.schema.encoding,
+                        &record.schema.data,
+                    )
                     .map_err(|e| self.mcap_error(e))?;
                 self.schema_ids.insert(record.schema.name.clone(), id);
                 id
@@ -209,7 +210,12 @@ impl OpenLog {
         };
         let id = self
             .writer
-            .add_channel(schema_id, &record.topic, MESSAGE_ENCODING, &BTreeMap::new())
+            .add_channel(
+                schema_id,
+                &record.topic,
+                &record.schema.message_encoding,
+                &BTreeMap::new(),
+            )
             .map_err(|e| self.mcap_error(e))?;
         self.channels
             .insert(record.topic.clone(), (id, record.schema.name.clone()));

@@ -238,7 +238,7 @@ mod tests {
             let schema = channel.schema.as_ref().expect("schema");
             assert_eq!(schema.encoding, "jsonschema");
             if schema.name == "Observation" {
-                assert_eq!(&*schema.data, observation.json.as_slice());
+                assert_eq!(&*schema.data, observation.data.as_slice());
             }
         }
         assert!(

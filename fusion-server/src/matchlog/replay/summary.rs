@@ -34,6 +34,9 @@ pub fn summary_json(r: &ReplayReport, wall_s: f64, out: &ReplayOutputs) -> serde
         "states_identical": r.states_identical,
         "states_written": r.states_written,
         "states_without_estimate": r.states_without_estimate,
+        "scene_written": r.scene_written,
+        "scene_replaced": r.scene_replaced,
+        "other": r.other,
         "model": r.model.map(|m| serde_json::json!({
             "rolling_decel_mps2": m.rolling_decel_mps2,
             "wall_restitution": m.wall_restitution,
@@ -104,6 +107,12 @@ pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
         line(format!(
             "  without estimate  {} (asked for before the ball was first seen)",
             r.states_without_estimate
+        ));
+    }
+    if r.scene_written > 0 || r.scene_replaced > 0 {
+        line(format!(
+            "scene messages      {} written, {} of the log's replaced",
+            r.scene_written, r.scene_replaced
         ));
     }
     if let Some(m) = &r.model {
