@@ -142,6 +142,8 @@ struct RobotEntry {
     status_received: Option<Stamp>,
     last_obs_received: Option<Stamp>,
     accepted: u64,
+    /// Its statuses accepted (with `accepted`, how established it is).
+    statuses: u64,
     rejected: u64,
     rate: Rate,
     /// Arrival minus capture of its accepted observations, exponentially averaged.
@@ -165,6 +167,7 @@ impl RobotEntry {
             status_received: None,
             last_obs_received: None,
             accepted: 0,
+            statuses: 0,
             rejected: 0,
             rate: Rate::default(),
             latency_s: None,
@@ -224,6 +227,9 @@ pub struct EngineCounters {
     pub observations_clock_corrected: u64,
     /// Robot clock jumps caught.
     pub clock_jumps: u64,
+    /// Robots not yet established forgotten to make room for a newcomer, the table being
+    /// full (see [`AdmissionConfig::established_messages`]).
+    pub robots_evicted: u64,
     /// Notable events not kept because [`MAX_EVENTS`] were waiting.
     pub events_dropped: u64,
     /// (message kind, reason) → count.
@@ -447,17 +453,36 @@ impl Engine {
         }
     }
 
-    /// Room for `robot_id` in the table at `now` (robots gone quiet are forgotten to make it).
+    /// Room for `robot_id` in the table at `now`. When the table is full, robots gone quiet
+    /// are forgotten first; then the least established one that is not: fewest accepted
+    /// messages, without a liveliness token before with one, the longest unheard. A robot
+    /// that has sent [`AdmissionConfig::established_messages`] keeps its place, so a burst
+    /// of made-up ids takes room only from each other, never from robots that are fusing.
     fn make_room(&mut self, robot_id: &str, now: Stamp) -> Result<(), Rejection> {
-        if !self.robots.contains_key(robot_id) && self.robots.len() >= MAX_ROBOTS {
-            let expiry_s = self.cfg.admission.robot_expiry_s;
-            self.robots
-                .retain(|_, r| now.secs_since(r.last_heard) <= expiry_s);
-            if self.robots.len() >= MAX_ROBOTS {
-                return Err(Rejection::TooManyRobots(robot_id.into()));
-            }
+        if self.robots.contains_key(robot_id) || self.robots.len() < MAX_ROBOTS {
+            return Ok(());
         }
-        Ok(())
+        let expiry_s = self.cfg.admission.robot_expiry_s;
+        self.robots
+            .retain(|_, r| now.secs_since(r.last_heard) <= expiry_s);
+        if self.robots.len() < MAX_ROBOTS {
+            return Ok(());
+        }
+        let established = self.cfg.admission.established_messages;
+        let victim = self
+            .robots
+            .iter()
+            .filter(|(_, r)| r.accepted + r.statuses < established)
+            .min_by_key(|(_, r)| (r.accepted + r.statuses, r.online, r.last_heard))
+            .map(|(id, _)| id.clone());
+        match victim {
+            Some(id) => {
+                self.robots.remove(&id);
+                self.counters.robots_evicted += 1;
+                Ok(())
+            }
+            None => Err(Rejection::TooManyRobots(robot_id.into())),
+        }
     }
 
     /// The entry of `robot_id` (made if new), heard of at `now`; call [`Self::make_room`] first.
@@ -623,6 +648,7 @@ impl Engine {
         }
         self.counters.statuses_accepted += 1;
         let entry = self.entry_at(&status.robot_id, received);
+        entry.statuses += 1;
         let correction_s = entry.correction_s;
         let since = entry
             .status

@@ -1,6 +1,7 @@
 //! Who may take room in the server's state: a token bucket per robot (a flood from one id
-//! cannot crowd out the rest) and the expiry of robots gone quiet (a burst of made-up ids
-//! cannot hold the robot table for longer than the idle time).
+//! cannot crowd out the rest), the expiry of robots gone quiet, and, when the robot table
+//! is full, room made by forgetting the least established robot (a burst of made-up ids
+//! takes room only from each other, never from robots that are fusing).
 
 use proto::Stamp;
 
@@ -47,6 +48,10 @@ pub struct AdmissionConfig {
     /// A robot heard of neither message nor liveliness change for this long is forgotten:
     /// at once when its token is gone, and when the table is full otherwise.
     pub robot_expiry_s: f64,
+    /// Accepted messages (observations and statuses) after which a robot is established:
+    /// when the table is full, only robots with fewer may be forgotten for a newcomer,
+    /// those with the fewest first.
+    pub established_messages: u64,
 }
 
 impl Default for AdmissionConfig {
@@ -55,6 +60,7 @@ impl Default for AdmissionConfig {
             rate_limit_hz: 200.0,
             rate_burst: 200.0,
             robot_expiry_s: 10.0,
+            established_messages: 20,
         }
     }
 }

@@ -162,24 +162,98 @@ fn made_up_robots_cannot_grow_the_roster_without_bound() {
         let _ = e.liveliness(&id, true, at(0.0));
     }
     assert_eq!(e.robots(at(0.0)).len(), MAX_ROBOTS);
+    // A newcomer takes the place of one that has sent nothing; the table stays bounded.
     let o = obs("latecomer", 0, 0.0, 0.0);
     let r = e.observation(Some("latecomer"), &proto::encode(&o), at(0.05));
+    assert!(r.is_ok(), "{r:?}");
+    assert_eq!(e.robots(at(0.05)).len(), MAX_ROBOTS);
+    assert_eq!(e.counters().robots_evicted, 11);
+}
+
+#[test]
+fn a_burst_of_made_up_ids_takes_no_place_from_robots_that_are_fusing() {
+    let mut e = Engine::new(EngineConfig::default());
+    let established = e.config().admission.established_messages;
+    // Five honest robots, fusing for a while.
+    for k in 0..established {
+        for r in 0..5 {
+            let id = format!("honest{r}");
+            let o = obs(&id, k, k as f64 * 0.05, 0.2);
+            let got = e.observation(Some(&id), &proto::encode(&o), at(k as f64 * 0.05 + 0.01));
+            assert!(got.is_ok(), "{got:?}");
+        }
+    }
+    // A burst of 300 made-up ids, one valid observation each, within 0.3 s.
+    let t = established as f64 * 0.05;
+    for k in 0..300u64 {
+        let id = format!("fake{k}");
+        let at_s = t + k as f64 * 0.001;
+        let o = obs(&id, 0, at_s, 0.2);
+        let _ = e.observation(Some(&id), &proto::encode(&o), at(at_s + 0.001));
+    }
+    assert_eq!(e.robots(at(t + 0.3)).len(), MAX_ROBOTS);
+    // The honest robots kept their places and are accepted at once, and so is a robot
+    // arriving after the burst.
+    let after = t + 0.35;
+    for r in 0..5 {
+        let id = format!("honest{r}");
+        let o = obs(&id, established, after, 0.2);
+        let got = e.observation(Some(&id), &proto::encode(&o), at(after + 0.01));
+        assert!(got.is_ok(), "{id}: {got:?}");
+    }
+    let o = obs("newcomer", 0, after, 0.2);
+    let got = e.observation(Some("newcomer"), &proto::encode(&o), at(after + 0.01));
+    assert!(got.is_ok(), "{got:?}");
+    assert_eq!(rejected(&e, "too_many_robots"), 0);
+    assert!(e.counters().robots_evicted >= 300 - (MAX_ROBOTS as u64 - 5));
+}
+
+#[test]
+fn a_table_of_established_robots_refuses_a_newcomer() {
+    let mut e = Engine::new(EngineConfig {
+        admission: AdmissionConfig {
+            established_messages: 1,
+            ..AdmissionConfig::default()
+        },
+        ..EngineConfig::default()
+    });
+    for k in 0..MAX_ROBOTS {
+        let id = format!("r{k}");
+        let o = obs(&id, 0, 0.0, 0.2);
+        assert!(
+            e.observation(Some(&id), &proto::encode(&o), at(0.01))
+                .is_ok()
+        );
+    }
+    let o = obs("latecomer", 0, 0.5, 0.0);
+    let r = e.observation(Some("latecomer"), &proto::encode(&o), at(0.55));
     assert_eq!(r.expect_err("full").reason(), "too_many_robots");
     // Known robots still get through.
-    let o = obs("r1", 0, 0.0, 0.0);
+    let o = obs("r1", 1, 0.5, 0.2);
     assert!(
-        e.observation(Some("r1"), &proto::encode(&o), at(0.05))
+        e.observation(Some("r1"), &proto::encode(&o), at(0.55))
             .is_ok()
     );
 }
 
 #[test]
 fn robots_gone_quiet_give_their_room_to_newcomers() {
-    let mut e = Engine::new(EngineConfig::default());
+    let mut e = Engine::new(EngineConfig {
+        admission: AdmissionConfig {
+            established_messages: 1,
+            ..AdmissionConfig::default()
+        },
+        ..EngineConfig::default()
+    });
     let expiry_s = e.config().admission.robot_expiry_s;
-    // Made-up ids holding liveliness tokens fill the table...
+    // Robots that sent something fill the table...
     for k in 0..MAX_ROBOTS {
-        e.liveliness(&format!("r{k}"), true, at(0.0)).expect("room");
+        let id = format!("r{k}");
+        let o = obs(&id, 0, 0.0, 0.2);
+        assert!(
+            e.observation(Some(&id), &proto::encode(&o), at(0.01))
+                .is_ok()
+        );
     }
     let o = obs("latecomer", 0, expiry_s * 0.5, 0.0);
     let r = e.observation(Some("latecomer"), &proto::encode(&o), at(expiry_s * 0.5));

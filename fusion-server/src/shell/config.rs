@@ -102,6 +102,8 @@ pub struct LimitsFile {
     pub rate_burst: Option<f64>,
     /// Seconds a robot may stay quiet before the server forgets it.
     pub robot_expiry_s: Option<f64>,
+    /// Accepted messages after which a robot keeps its place in a full table.
+    pub established_messages: Option<u64>,
     /// HTTP connections open at once.
     pub http_max_connections: Option<usize>,
     /// Seconds from a request's first byte to the start of the answer.
@@ -157,6 +159,9 @@ impl LimitsFile {
         }
         if let Some(v) = self.robot_expiry_s {
             a.robot_expiry_s = positive("limits.robot_expiry_s", v)?;
+        }
+        if let Some(v) = self.established_messages {
+            a.established_messages = v;
         }
         Ok(())
     }

@@ -249,7 +249,7 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 33] = [
+    let simple: [(&str, &str, &str, u64); 34] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -273,6 +273,12 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
             "counter",
             "Accepted observations whose capture stamps were corrected by their robot's estimated clock offset.",
             c.observations_clock_corrected,
+        ),
+        (
+            "rf_robots_evicted_total",
+            "counter",
+            "Robots not yet established forgotten to make room for a newcomer, the robot table being full.",
+            c.robots_evicted,
         ),
         (
             "rf_clock_jumps_total",
