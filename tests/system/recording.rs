@@ -121,10 +121,18 @@ fn kill_9_while_recording_loses_at_most_about_a_second() {
     assert!(!log.complete, "no footer after kill -9");
     assert!(log.messages.len() > 100, "{}", log.messages.len());
     // Every message whole: the wire messages are JSON, the scene protobuf.
-    for m in log.messages.iter().filter(|m| !m.schema_name.starts_with("foxglove.")) {
+    for m in log
+        .messages
+        .iter()
+        .filter(|m| !m.schema_name.starts_with("foxglove."))
+    {
         assert!(serde_json::from_slice::<serde_json::Value>(&m.data).is_ok());
     }
-    assert!(log.messages.iter().any(|m| m.schema_name == "foxglove.SceneUpdate"));
+    assert!(
+        log.messages
+            .iter()
+            .any(|m| m.schema_name == "foxglove.SceneUpdate")
+    );
     let last = log
         .messages
         .iter()
