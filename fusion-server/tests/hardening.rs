@@ -376,14 +376,19 @@ async fn connections_beyond_the_cap_are_closed_at_once() -> anyhow::Result<()> {
         }),
     )
     .await?;
+    use tokio::io::AsyncWriteExt;
     let mut held = Vec::new();
     for _ in 0..4 {
-        held.push(tokio::net::TcpStream::connect(s.http).await?);
+        // Each in the middle of a request: busy, so none may be closed for the newcomer.
+        let mut c = tokio::net::TcpStream::connect(s.http).await?;
+        c.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n").await?;
+        held.push(c);
     }
     eventually("four open", || {
         (s.metric("rf_http_connections") == Some(4.0)).then_some(())
     })
     .await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
     let mut extra = tokio::net::TcpStream::connect(s.http).await?;
     assert!(closed_by_server(&mut extra, Duration::from_secs(5)).await);
     assert_eq!(s.metric("rf_http_connections_refused_total"), Some(1.0));
@@ -394,6 +399,45 @@ async fn connections_beyond_the_cap_are_closed_at_once() -> anyhow::Result<()> {
     .await;
     let (code, _) = s.get("/healthz").await?;
     assert_eq!(code, 200);
+    s.stop().await
+}
+
+/// At the cap, a new connection takes the place of the one idle the longest: idle sockets
+/// cannot lock the page and the API out.
+#[tokio::test(flavor = "multi_thread")]
+async fn idle_connections_make_room_for_new_ones() -> anyhow::Result<()> {
+    use fusion_server::HttpLimits;
+    let s = TestServer::start(
+        "h-idle",
+        with_http(HttpLimits {
+            max_connections: 4,
+            ..HttpLimits::default()
+        }),
+    )
+    .await?;
+    let mut idle = Vec::new();
+    for _ in 0..4 {
+        idle.push(tokio::net::TcpStream::connect(s.http).await?);
+    }
+    eventually("four open", || {
+        (s.metric("rf_http_connections") == Some(4.0)).then_some(())
+    })
+    .await;
+    // Idle for more than a second: each new request closes one of them.
+    tokio::time::sleep(Duration::from_millis(1200)).await;
+    for _ in 0..3 {
+        let (code, _) = s.get("/api/state").await?;
+        assert_eq!(code, 200);
+    }
+    assert!(s.metric("rf_http_idle_evicted_total") >= Some(1.0));
+    assert_eq!(s.metric("rf_http_connections_refused_total"), Some(0.0));
+    let mut closed = 0;
+    for c in &mut idle {
+        if closed_by_server(c, Duration::from_millis(200)).await {
+            closed += 1;
+        }
+    }
+    assert!(closed >= 1, "an idle connection was closed");
     s.stop().await
 }
 

@@ -175,12 +175,19 @@ async fn raw_zenoh(n: u64) -> Result<Throughput> {
 }
 
 /// N observations from 10 robots through Zenoh into a server, as fast as they go.
+/// The most observations a second the throughput run sends from one robot: far above the
+/// per-robot limit, which is raised to it for that run (and said so in the table).
+pub const THROUGHPUT_LIMIT_HZ: f64 = 1e9;
+
 async fn server_throughput(n: u64) -> Result<Throughput> {
     let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
-    let cfg = ServeConfig {
+    let mut cfg = ServeConfig {
         net: NetConfig::listening(&endpoint),
         ..ServeConfig::default()
     };
+    // The server's own speed, not its limiter's: ten robots each far above 200/s.
+    cfg.engine.admission.rate_limit_hz = THROUGHPUT_LIMIT_HZ;
+    cfg.engine.admission.rate_burst = THROUGHPUT_LIMIT_HZ;
     let (live, stop, task) = start_server(cfg).await?;
     let tx = connect(&endpoint).await?;
     let robots = 10;
@@ -231,13 +238,14 @@ async fn server_throughput(n: u64) -> Result<Throughput> {
     })
 }
 
-/// Publishes `rate_hz` messages a second for `seconds`; `make(k)` gives the k-th payload
-/// and its tag. Returns, per message, the instant just before its `put` and its tag.
+/// Publishes `rate_hz` messages a second for `seconds`; `make(k)` gives the k-th message's
+/// publisher (an index into `pubs`), payload and tag. Returns, per message, the instant
+/// just before its `put` and its tag.
 async fn paced(
-    publ: &zenoh::pubsub::Publisher<'_>,
+    pubs: &[zenoh::pubsub::Publisher<'_>],
     rate_hz: f64,
     seconds: f64,
-    mut make: impl FnMut(u64) -> (Vec<u8>, u64),
+    mut make: impl FnMut(u64) -> (usize, Vec<u8>, u64),
 ) -> Result<Vec<(Instant, u64)>> {
     let n = (rate_hz * seconds) as u64;
     let period = Duration::from_secs_f64(1.0 / rate_hz);
@@ -248,9 +256,10 @@ async fn paced(
         if due > Instant::now() {
             tokio::time::sleep_until(due.into()).await;
         }
-        let (payload, tag) = make(k);
+        let (index, payload, tag) = make(k);
         let at = Instant::now();
-        publ.put(payload)
+        pubs[index]
+            .put(payload)
             .await
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         sent.push((at, tag));
@@ -258,7 +267,11 @@ async fn paced(
     Ok(sent)
 }
 
-/// Publish → state latency at `rate_hz` for `seconds`, states published on update.
+/// Robots sharing the latency run's observations, each well under the per-robot limit.
+pub const LATENCY_ROBOTS: usize = 20;
+
+/// Publish → state latency at `rate_hz` for `seconds` from [`LATENCY_ROBOTS`] robots in
+/// turn (each under the per-robot limit), states published on update.
 async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
     let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
     let cfg = ServeConfig {
@@ -282,19 +295,33 @@ async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
         })
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let publ = tx
-        .declare_publisher("rf/robots/bench0/obs")
-        .express(true)
-        .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut pubs = Vec::new();
+    for r in 0..LATENCY_ROBOTS {
+        pubs.push(
+            tx.declare_publisher(format!("rf/robots/bench{r}/obs"))
+                .express(true)
+                .await
+                .map_err(|e| anyhow::anyhow!("{e}"))?,
+        );
+    }
     tokio::time::sleep(Duration::from_millis(300)).await;
     let start = SystemClock.now();
-    let sent = paced(&publ, rate_hz, seconds, |k| {
+    let sent = paced(&pubs, rate_hz, seconds, |k| {
         let stamp = SystemClock.now();
-        let o = observation(0, k, stamp, stamp.secs_since(start));
-        (proto::encode(&o), stamp.0)
+        let robot = k as usize % LATENCY_ROBOTS;
+        let o = observation(
+            robot,
+            k / LATENCY_ROBOTS as u64,
+            stamp,
+            stamp.secs_since(start),
+        );
+        (robot, proto::encode(&o), stamp.0)
     })
     .await?;
+    let refused = live.with_engine(|e| e.counters().rejected.clone());
+    if !refused.is_empty() {
+        eprintln!("      refused in the latency run: {refused:?}");
+    }
     tokio::time::sleep(Duration::from_millis(300)).await;
     let _ = tx.close().await;
     let _ = stop.send(true);
@@ -319,6 +346,97 @@ async fn latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
         }
     }
     Ok(Latency::of(rate_hz, sent.len(), lat_s))
+}
+
+/// The per-robot limit at work: one robot floods as fast as it can for `seconds` while
+/// another sends 100 observations a second; how many of each the server accepts.
+async fn limiter(seconds: f64) -> Result<Limiter> {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+    let cfg = ServeConfig {
+        net: NetConfig::listening(&endpoint),
+        ..ServeConfig::default()
+    };
+    let limit_hz = cfg.engine.admission.rate_limit_hz;
+    let burst = cfg.engine.admission.rate_burst;
+    let (live, stop, task) = start_server(cfg).await?;
+    let tx = connect(&endpoint).await?;
+    let flood = publisher(&tx, "rf/robots/bench0/obs".into()).await?;
+    let honest = publisher(&tx, "rf/robots/bench1/obs".into()).await?;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let start = SystemClock.now();
+    let t0 = Instant::now();
+    let honest_task = async {
+        let n = (100.0 * seconds) as u64;
+        for k in 0..n {
+            let stamp = SystemClock.now();
+            let o = observation(1, k, stamp, stamp.secs_since(start));
+            honest
+                .put(proto::encode(&o))
+                .await
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        Ok::<u64, anyhow::Error>(n)
+    };
+    let flood_task = async {
+        let mut k = 0;
+        while t0.elapsed().as_secs_f64() < seconds {
+            let stamp = SystemClock.now();
+            let o = observation(0, k, stamp, stamp.secs_since(start));
+            flood
+                .put(proto::encode(&o))
+                .await
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            k += 1;
+            if k % 64 == 0 {
+                tokio::task::yield_now().await;
+            }
+        }
+        Ok::<u64, anyhow::Error>(k)
+    };
+    let (honest_sent, flood_sent) = tokio::try_join!(honest_task, flood_task)?;
+    let secs = t0.elapsed().as_secs_f64();
+    let handled = |live: &fusion_server::Shared| {
+        live.with_engine(|e| {
+            e.robots(SystemClock.now())
+                .iter()
+                .map(|r| r.observations_accepted + r.observations_rejected)
+                .sum::<u64>()
+        })
+    };
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while handled(&live) < honest_sent + flood_sent && Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let (flood_accepted, honest_accepted, rate_limited) = live.with_engine(|e| {
+        let robots = e.robots(SystemClock.now());
+        let accepted = |id: &str| {
+            robots
+                .iter()
+                .find(|r| r.robot_id == id)
+                .map_or(0, |r| r.observations_accepted)
+        };
+        let limited = e
+            .counters()
+            .rejected
+            .get(&("observation", "rate_limited"))
+            .copied()
+            .unwrap_or(0);
+        (accepted("bench0"), accepted("bench1"), limited)
+    });
+    let _ = tx.close().await;
+    let _ = stop.send(true);
+    task.await??;
+    Ok(Limiter {
+        seconds: secs,
+        limit_hz,
+        burst,
+        flood_sent,
+        flood_accepted,
+        rate_limited,
+        honest_sent,
+        honest_accepted,
+    })
 }
 
 /// The same pattern without a server: a message to another session, whose callback
@@ -358,10 +476,10 @@ async fn raw_echo_latency(rate_hz: f64, seconds: f64) -> Result<Latency> {
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     tokio::time::sleep(Duration::from_millis(300)).await;
-    let sent = paced(&ping, rate_hz, seconds, |k| {
+    let sent = paced(std::slice::from_ref(&ping), rate_hz, seconds, |k| {
         let mut payload = k.to_le_bytes().to_vec();
         payload.resize(230, b' ');
-        (payload, k)
+        (0, payload, k)
     })
     .await?;
     tokio::time::sleep(Duration::from_millis(300)).await;
@@ -538,6 +656,7 @@ async fn run(args: Args) -> Result<()> {
     ));
     let raw_latency = raw_echo_latency(2000.0, args.latency_s).await?;
     let lat = latency(2000.0, args.latency_s).await?;
+    let limited = limiter(2.0).await?;
     stages.inc(format!(
         "offline replay of a {} s match",
         args.replay_match_s
@@ -552,6 +671,9 @@ async fn run(args: Args) -> Result<()> {
         server,
         raw_latency,
         latency: lat,
+        limiter: limited,
+        throughput_limit_hz: THROUGHPUT_LIMIT_HZ,
+        latency_robots: LATENCY_ROBOTS,
         replay,
         memory: mem,
         cores: std::thread::available_parallelism()

@@ -244,8 +244,22 @@ pub async fn bind_foxglove(
     Ok(Some(l))
 }
 
+/// Connections the kernel holds for the HTTP listener before it accepts them: a thousand
+/// viewers arriving at once wait there instead of being refused.
+pub const HTTP_BACKLOG: u32 = 4096;
+
 pub async fn bind_http(addr: &str) -> Result<tokio::net::TcpListener> {
-    tokio::net::TcpListener::bind(addr)
-        .await
-        .with_context(|| format!("cannot listen for HTTP on {addr} (choose another with --http)"))
+    let context = || format!("cannot listen for HTTP on {addr} (choose another with --http)");
+    let mut resolved = tokio::net::lookup_host(addr).await.with_context(context)?;
+    let sock_addr = resolved
+        .next()
+        .with_context(|| format!("{addr} names no address"))?;
+    let socket = match sock_addr {
+        std::net::SocketAddr::V4(_) => tokio::net::TcpSocket::new_v4(),
+        std::net::SocketAddr::V6(_) => tokio::net::TcpSocket::new_v6(),
+    }
+    .with_context(context)?;
+    socket.set_reuseaddr(true).with_context(context)?;
+    socket.bind(sock_addr).with_context(context)?;
+    socket.listen(HTTP_BACKLOG).with_context(context)
 }

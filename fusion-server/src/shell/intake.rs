@@ -4,14 +4,15 @@
 //! does not turn valid observations into `too_late`; and the Zenoh receive path never
 //! waits for the engine's lock.
 //!
-//! The queue is bounded by count and by bytes; what does not fit is dropped and counted
-//! as a rejection with reason `queue_full`.
+//! The queue is bounded by count and by bytes. When it is full the *oldest* waiting input
+//! is dropped to make room (counted as a rejection with reason `queue_full`): under
+//! overload the engine works on what is freshest, and the backlog, hence the latency,
+//! stays bounded; when the load stops, what is queued is worked off at once.
 
 use crate::shell::live::Live;
 use proto::Stamp;
-use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
-use std::sync::{Arc, Mutex};
+use std::collections::VecDeque;
+use std::sync::{Arc, Condvar, Mutex};
 
 /// Samples the queue holds.
 pub const QUEUE_CAPACITY: usize = 16_384;
@@ -41,12 +42,71 @@ struct Input {
     received: Stamp,
 }
 
+/// The queue between the receiving threads and the worker.
+#[derive(Debug, Default)]
+struct Queue {
+    state: Mutex<QueueState>,
+    ready: Condvar,
+}
+
+#[derive(Debug, Default)]
+struct QueueState {
+    inputs: VecDeque<Input>,
+    bytes: u64,
+    closed: bool,
+}
+
+impl Queue {
+    /// Queues `input`, first dropping the oldest inputs that leave no room; the kinds of
+    /// those dropped. A closed queue drops `input` itself.
+    fn push(&self, input: Input) -> Vec<InputKind> {
+        let mut q = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        if q.closed {
+            return vec![input.kind];
+        }
+        let bytes = input.payload.len() as u64;
+        let mut dropped = Vec::new();
+        while !q.inputs.is_empty()
+            && (q.inputs.len() >= QUEUE_CAPACITY || q.bytes + bytes > QUEUE_MAX_BYTES)
+        {
+            if let Some(old) = q.inputs.pop_front() {
+                q.bytes -= old.payload.len() as u64;
+                dropped.push(old.kind);
+            }
+        }
+        q.bytes += bytes;
+        q.inputs.push_back(input);
+        drop(q);
+        self.ready.notify_one();
+        dropped
+    }
+
+    /// The oldest input, waiting for one; `None` once closed and empty.
+    fn pop(&self) -> Option<Input> {
+        let mut q = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        loop {
+            if let Some(input) = q.inputs.pop_front() {
+                q.bytes -= input.payload.len() as u64;
+                return Some(input);
+            }
+            if q.closed {
+                return None;
+            }
+            q = self.ready.wait(q).unwrap_or_else(|p| p.into_inner());
+        }
+    }
+
+    fn close(&self) {
+        self.state.lock().unwrap_or_else(|p| p.into_inner()).closed = true;
+        self.ready.notify_all();
+    }
+}
+
 /// The receiving end's handle: cheap to call from Zenoh callbacks.
 #[derive(Debug)]
 pub struct Intake {
-    tx: Mutex<Option<SyncSender<Input>>>,
+    queue: Arc<Queue>,
     live: Arc<Live>,
-    queued_bytes: Arc<AtomicU64>,
     worker: Mutex<Option<std::thread::JoinHandle<()>>>,
     /// The engine's caps on (observation, status) payloads.
     max_bytes: (usize, usize),
@@ -55,20 +115,18 @@ pub struct Intake {
 impl Intake {
     /// Starts the worker thread feeding `live`.
     pub fn start(live: Arc<Live>) -> std::io::Result<Arc<Intake>> {
-        let (tx, rx) = sync_channel(QUEUE_CAPACITY);
-        let queued_bytes = Arc::new(AtomicU64::new(0));
-        let (l, q) = (live.clone(), queued_bytes.clone());
+        let queue = Arc::new(Queue::default());
+        let (l, q) = (live.clone(), queue.clone());
         let max_bytes = live.with_engine(|e| {
             let c = e.config();
             (c.max_observation_bytes, c.max_status_bytes)
         });
         let worker = std::thread::Builder::new()
             .name("intake".into())
-            .spawn(move || work(&l, &rx, &q))?;
+            .spawn(move || work(&l, &q))?;
         Ok(Arc::new(Intake {
-            tx: Mutex::new(Some(tx)),
+            queue,
             live,
-            queued_bytes,
             worker: Mutex::new(Some(worker)),
             max_bytes,
         }))
@@ -86,32 +144,20 @@ impl Intake {
             self.live.count_refused_input(kind.label(), "too_large");
             return;
         }
-        let payload = payload.to_vec();
-        let bytes = payload.len() as u64;
-        let before = self.queued_bytes.fetch_add(bytes, Relaxed);
         let input = Input {
             kind,
             key: key.to_string(),
-            payload,
+            payload: payload.to_vec(),
             received,
         };
-        let sent = before + bytes <= QUEUE_MAX_BYTES
-            && match self.tx.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-                Some(tx) => match tx.try_send(input) {
-                    Ok(()) => true,
-                    Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => false,
-                },
-                None => false,
-            };
-        if !sent {
-            self.queued_bytes.fetch_sub(bytes, Relaxed);
-            self.live.count_refused_input(kind.label(), "queue_full");
+        for old in self.queue.push(input) {
+            self.live.count_refused_input(old.label(), "queue_full");
         }
     }
 
     /// Closes the queue and waits for the worker to finish what is queued.
     pub fn stop(&self) {
-        self.tx.lock().unwrap_or_else(|p| p.into_inner()).take();
+        self.queue.close();
         if let Some(w) = self.worker.lock().unwrap_or_else(|p| p.into_inner()).take()
             && w.join().is_err()
         {
@@ -120,9 +166,8 @@ impl Intake {
     }
 }
 
-fn work(live: &Live, rx: &Receiver<Input>, queued_bytes: &AtomicU64) {
-    while let Ok(input) = rx.recv() {
-        queued_bytes.fetch_sub(input.payload.len() as u64, Relaxed);
+fn work(live: &Live, queue: &Queue) {
+    while let Some(input) = queue.pop() {
         match input.kind {
             InputKind::Observation => {
                 live.on_observation_at(&input.key, &input.payload, input.received)
@@ -138,7 +183,7 @@ mod tests {
     use crate::clock::Clock;
     use crate::shell::serve::{ServeConfig, shared};
     use proto::test_support::observation;
-    use std::sync::atomic::AtomicU64;
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
     use std::sync::mpsc::channel;
 
     #[derive(Debug)]
@@ -193,5 +238,29 @@ mod tests {
         });
         assert_eq!((accepted, late), (n, None));
         Ok(())
+    }
+
+    /// A full queue drops its oldest inputs, not the newest, and the worker then gets the
+    /// newest ones in order.
+    #[test]
+    fn a_full_queue_drops_the_oldest() {
+        let q = Queue::default();
+        let input = |seq: usize| Input {
+            kind: InputKind::Observation,
+            key: format!("k{seq}"),
+            payload: vec![0; 10],
+            received: Stamp(seq as u64),
+        };
+        let mut dropped = 0;
+        for seq in 0..QUEUE_CAPACITY + 5 {
+            dropped += q.push(input(seq)).len();
+        }
+        assert_eq!(dropped, 5);
+        assert_eq!(q.pop().map(|i| i.key), Some("k5".to_string()));
+        q.close();
+        let rest = std::iter::from_fn(|| q.pop()).count();
+        assert_eq!(rest, QUEUE_CAPACITY - 1);
+        // Closed: nothing more is taken.
+        assert_eq!(q.push(input(0)).len(), 1);
     }
 }

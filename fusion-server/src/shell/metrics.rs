@@ -249,7 +249,7 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 34] = [
+    let simple: [(&str, &str, &str, u64); 35] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -405,6 +405,12 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
             "counter",
             "HTTP connections closed at once because the connection cap was reached.",
             h.refused.load(Relaxed),
+        ),
+        (
+            "rf_http_idle_evicted_total",
+            "counter",
+            "Idle HTTP connections closed to make room for a new one, the connection cap being reached.",
+            h.idle_evicted.load(Relaxed),
         ),
         (
             "rf_http_request_timeouts_total",

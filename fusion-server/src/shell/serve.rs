@@ -5,7 +5,7 @@ use crate::clock::Clock;
 use crate::engine::{Engine, EngineConfig};
 use crate::matchlog::MatchLog;
 use crate::query;
-use crate::shell::http::guard::{GuardedListener, HttpLimits};
+use crate::shell::http::guard::{GuardedListener, HttpLimits, connection_cap};
 use crate::shell::intake::{InputKind, Intake};
 use crate::shell::live::{ControlAccess, Live};
 use crate::shell::net::NetConfig;
@@ -283,7 +283,23 @@ pub async fn serve_all(
     let mut http_stop = stop_rx.clone();
     // `tap_io` only to get the connection's address to the handlers (the control
     // endpoints' loopback check).
-    let http = GuardedListener::new(http, &cfg.http_limits, live.stats.http.clone()).tap_io(|_| {});
+    let mut limits = cfg.http_limits.clone();
+    match crate::shell::http::guard::fd_limits() {
+        Some(fd) => {
+            limits.max_connections = connection_cap(limits.max_connections, fd.soft);
+            tracing::info!(
+                "open files: limit {} (was {}, hard limit {}); HTTP: at most {} connections, {} \
+                 descriptors kept for Zenoh, the match log and the rest",
+                fd.soft,
+                fd.soft_before,
+                fd.hard,
+                limits.max_connections,
+                crate::shell::http::guard::FD_RESERVE
+            );
+        }
+        None => tracing::warn!("the open-files limit could not be read"),
+    }
+    let http = GuardedListener::new(http, &limits, live.stats.http.clone()).tap_io(|_| {});
     let http_task = tokio::spawn(async move {
         axum::serve(
             http,
