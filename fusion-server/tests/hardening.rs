@@ -441,6 +441,39 @@ async fn idle_connections_make_room_for_new_ones() -> anyhow::Result<()> {
     s.stop().await
 }
 
+/// Statuses of `robots` robots as large as the caps allow (the most footprints of the most
+/// corners): large frames on the live stream and large scenes, to fill socket buffers fast.
+async fn put_big_statuses(s: &TestServer, robots: u64) -> anyhow::Result<()> {
+    for k in 0..robots {
+        let robot = format!("big{k}");
+        let mut st = status(&robot);
+        st.footprints = vec![
+            proto::CameraFootprint {
+                camera: proto::Camera::Left,
+                polygon_m: vec![[0.123_456_789, -0.987_654_321]; proto::MAX_FOOTPRINT_POINTS],
+            };
+            proto::MAX_STATUS_FOOTPRINTS
+        ];
+        s.put(&format!("rf/robots/{robot}/status"), proto::encode(&st))
+            .await?;
+    }
+    Ok(())
+}
+
+/// A Foxglove WebSocket client of the server at `addr`.
+async fn foxglove_client(
+    addr: std::net::SocketAddr,
+) -> anyhow::Result<
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>,
+> {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let mut request = format!("ws://{addr}/").into_client_request()?;
+    request
+        .headers_mut()
+        .insert("Sec-WebSocket-Protocol", "foxglove.websocket.v1".parse()?);
+    Ok(tokio_tungstenite::connect_async(request).await?.0)
+}
+
 /// A live-stream client that stops reading is dropped after the send timeout (counted),
 /// instead of holding an ever larger send buffer.
 #[tokio::test(flavor = "multi_thread")]
@@ -458,19 +491,7 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
     s.until_accepted("link").await?;
     // Large (but valid) statuses make large frames, to fill the socket buffers quickly.
     let robots = 40;
-    for k in 0..robots {
-        let robot = format!("big{k}");
-        let mut st = status(&robot);
-        st.footprints = vec![
-            proto::CameraFootprint {
-                camera: proto::Camera::Left,
-                polygon_m: vec![[0.123_456_789, -0.987_654_321]; proto::MAX_FOOTPRINT_POINTS],
-            };
-            proto::MAX_STATUS_FOOTPRINTS
-        ];
-        s.put(&format!("rf/robots/{robot}/status"), proto::encode(&st))
-            .await?;
-    }
+    put_big_statuses(&s, robots).await?;
     let in_time = tokio::time::Instant::now() + Duration::from_secs(20);
     loop {
         let (accepted, rejected) = s.live.with_engine(|e| {
@@ -513,7 +534,7 @@ async fn a_stuck_stream_client_is_dropped() -> anyhow::Result<()> {
 async fn a_stuck_foxglove_client_is_dropped_and_counted() -> anyhow::Result<()> {
     use fusion_server::HttpLimits;
     use futures_util::{SinkExt, StreamExt};
-    use tokio_tungstenite::tungstenite::{Message, client::IntoClientRequest};
+    use tokio_tungstenite::tungstenite::Message;
     let s = TestServer::start_with_foxglove(
         "h-fox",
         with_http(HttpLimits {
@@ -525,30 +546,14 @@ async fn a_stuck_foxglove_client_is_dropped_and_counted() -> anyhow::Result<()> 
     s.until_accepted("link").await?;
     // Robots with large footprints make large scene updates, to fill the socket buffers.
     let robots = 40;
-    for k in 0..robots {
-        let robot = format!("big{k}");
-        let mut st = status(&robot);
-        st.footprints = vec![
-            proto::CameraFootprint {
-                camera: proto::Camera::Left,
-                polygon_m: vec![[0.123_456_789, -0.987_654_321]; proto::MAX_FOOTPRINT_POINTS],
-            };
-            proto::MAX_STATUS_FOOTPRINTS
-        ];
-        s.put(&format!("rf/robots/{robot}/status"), proto::encode(&st))
-            .await?;
-    }
+    put_big_statuses(&s, robots).await?;
     eventually("the statuses accepted", || {
         s.live
             .with_engine(|e| (e.counters().statuses_accepted == robots).then_some(()))
     })
     .await;
     let addr = s.foxglove.expect("a Foxglove listener");
-    let mut request = format!("ws://{addr}/").into_client_request()?;
-    request
-        .headers_mut()
-        .insert("Sec-WebSocket-Protocol", "foxglove.websocket.v1".parse()?);
-    let (mut stuck, _) = tokio_tungstenite::connect_async(request).await?;
+    let mut stuck = foxglove_client(addr).await?;
     // Subscribe to every channel it is told of until the scene is among them, then read no more.
     let mut subscribed_scene = false;
     while !subscribed_scene {
@@ -583,11 +588,7 @@ async fn a_stuck_foxglove_client_is_dropped_and_counted() -> anyhow::Result<()> 
     assert!(s.metric("rf_foxglove_messages_sent_total") >= Some(1.0));
     assert!(s.metric("rf_foxglove_messages_dropped_total") >= Some(1.0));
     // A new client is served as before.
-    let mut request = format!("ws://{addr}/").into_client_request()?;
-    request
-        .headers_mut()
-        .insert("Sec-WebSocket-Protocol", "foxglove.websocket.v1".parse()?);
-    let (mut fresh, _) = tokio_tungstenite::connect_async(request).await?;
+    let mut fresh = foxglove_client(addr).await?;
     let first = tokio::time::timeout(Duration::from_secs(10), fresh.next())
         .await?
         .ok_or_else(|| anyhow::anyhow!("closed"))??;

@@ -156,20 +156,15 @@ async fn observations_in_states_and_answers_out() -> anyhow::Result<()> {
 #[tokio::test(flavor = "multi_thread")]
 async fn a_robot_program_reads_the_ball_through_the_typed_client() -> anyhow::Result<()> {
     use proto::client::{BallClient, ClientError};
-    let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
-    let cfg = ServeConfig {
-        server_id: "typed".into(),
-        net: NetConfig::listening(&endpoint),
-        state_rate_hz: 50.0,
-        ..ServeConfig::default()
-    };
-    let live = fusion_server::shared(&cfg, Arc::new(SystemClock), None)?;
-    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
-    let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
-    let server = tokio::spawn(fusion_server::serve(cfg, live.clone(), http, async move {
-        let _ = stop_rx.wait_for(|s| *s).await;
-    }));
-
+    let s = server::TestServer::start(
+        "typed",
+        ServeConfig {
+            state_rate_hz: 50.0,
+            ..ServeConfig::default()
+        },
+    )
+    .await?;
+    let endpoint = s.endpoint.clone();
     let client = BallClient::connect(&NetConfig::connecting(&endpoint), "rf").await?;
     assert_eq!(
         client.wait_for_server(Duration::from_secs(20)).await?,
@@ -177,31 +172,17 @@ async fn a_robot_program_reads_the_ball_through_the_typed_client() -> anyhow::Re
     );
     let mut states = client.subscribe().await?;
 
-    // A robot sees the ball rolling along +x.
-    let robot = NetConfig::connecting(&endpoint).open().await?;
-    let publisher = robot
-        .declare_publisher("rf/robots/tc1/obs")
-        .congestion_control(zenoh::qos::CongestionControl::Block)
-        .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    // The link up before publishing (a put before it would go nowhere).
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
-    while robot.info().peers_zid().await.next().is_none() {
-        assert!(tokio::time::Instant::now() < deadline, "no link");
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
+    // A robot sees the ball rolling along +x (the link up first).
+    s.until_accepted("tc1").await?;
     let t0 = SystemClock.now();
     for k in 0..30u64 {
         let o = obs(
             "tc1",
-            k,
+            100 + k,
             t0.offset_secs(k as f64 * 0.02),
             0.2 + 0.006 * k as f64,
         );
-        publisher
-            .put(proto::encode(&o))
-            .await
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        s.put("rf/robots/tc1/obs", proto::encode(&o)).await?;
     }
     let state = tokio::time::timeout(Duration::from_secs(10), states.next())
         .await?
@@ -246,9 +227,6 @@ async fn a_robot_program_reads_the_ball_through_the_typed_client() -> anyhow::Re
     assert!(err.to_string().contains(&nowhere), "{err}");
     lonely.close().await?;
 
-    let _ = stop_tx.send(true);
-    server.await??;
     client.close().await?;
-    robot.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    Ok(())
+    s.stop().await
 }

@@ -15,29 +15,12 @@ use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor};
 use proto::Stamp;
 use serde_json::Value;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 use support::*;
 use tokio_tungstenite::tungstenite::{Message, client::IntoClientRequest};
 
 const ROBOTS: [&str; 3] = ["miro1", "miro2", "miro3"];
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rf-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-fn mcap_files(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .expect("log dir")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
-        .collect();
-    files.sort();
-    files
-}
 
 /// A message type from a serialised `FileDescriptorSet` (as MCAP and Foxglove carry it).
 fn descriptor(set: &[u8], name: &str) -> MessageDescriptor {
@@ -330,12 +313,8 @@ async fn the_match_is_a_foxglove_scene_live_in_the_log_and_after_replay() {
         x.abs() <= 1.95 && y.abs() <= 1.3,
         "ball on the pitch: {x}, {y}"
     );
-    let (_, metrics) = http_get(&addr, "/metrics").expect("metrics");
-    let sent = metrics
-        .lines()
-        .find_map(|l| l.strip_prefix("rf_foxglove_messages_sent_total "))
-        .and_then(|v| v.trim().parse::<u64>().ok());
-    assert!(sent.is_some_and(|n| n > 0), "counted: {sent:?}");
+    let sent = metric(&addr, "rf_foxglove_messages_sent_total");
+    assert!(sent > 0.0, "counted: {sent}");
 
     tokio::task::spawn_blocking(move || {
         wait_for("robots to finish", Duration::from_secs(60), || {

@@ -5,26 +5,9 @@ mod support;
 
 use fusion_server::read_log;
 use proto::Stamp;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 use support::*;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rf-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-fn logs_in(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .expect("log dir")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
-        .collect();
-    files.sort();
-    files
-}
 
 /// A server recording into `dir` and a process of simulated robots feeding it.
 fn recorded_match(dir: &Path, seconds: f64) -> (Proc, Proc, String) {
@@ -47,11 +30,7 @@ fn recorded_match(dir: &Path, seconds: f64) -> (Proc, Proc, String) {
 }
 
 fn states_recorded(addr: &str) -> u64 {
-    let (_, text) = http_get(addr, "/metrics").expect("metrics");
-    text.lines()
-        .find_map(|l| l.strip_prefix("rf_states_published_total "))
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(0)
+    metric(addr, "rf_states_published_total") as u64
 }
 
 #[test]
@@ -65,7 +44,7 @@ fn a_recorded_match_replays_to_identical_states() {
     assert!(server.terminate(Duration::from_secs(20)).success());
     drop(robots);
 
-    let files = logs_in(&dir);
+    let files = mcap_files(&dir);
     assert_eq!(files.len(), 1, "{files:?}");
     let log = read_log(&files[0]).expect("readable log");
     assert!(log.complete, "{:?}", log.problem);
@@ -115,7 +94,7 @@ fn kill_9_while_recording_loses_at_most_about_a_second() {
     let _ = server.child.wait();
     drop(robots);
 
-    let files = logs_in(&dir);
+    let files = mcap_files(&dir);
     assert_eq!(files.len(), 1, "{files:?}");
     let log = read_log(&files[0]).expect("a crashed log is still readable");
     assert!(!log.complete, "no footer after kill -9");
@@ -165,7 +144,7 @@ fn a_simulated_log_plays_back_as_if_live() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let files = logs_in(&dir);
+    let files = mcap_files(&dir);
     assert_eq!(files.len(), 1, "{files:?}");
     let port = proto::net::free_loopback_port().expect("port");
     let endpoint = format!("tcp/127.0.0.1:{port}");
@@ -218,7 +197,7 @@ fn two_servers_share_a_record_directory() {
     let (mut b, _, _) = start_server(&["--id", "rec-b", "--record", d]);
     assert!(a.terminate(Duration::from_secs(20)).success());
     assert!(b.terminate(Duration::from_secs(20)).success());
-    let files = logs_in(&dir);
+    let files = mcap_files(&dir);
     assert_eq!(files.len(), 2, "{files:?}");
     for f in &files {
         assert!(read_log(f).expect("read").complete, "{f:?}");

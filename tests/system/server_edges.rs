@@ -35,14 +35,6 @@ fn server_with_fd_limit(limit: u32) -> (Proc, String, String) {
     (p, endpoint, addr)
 }
 
-fn metric(addr: &str, name: &str) -> f64 {
-    let (_, text) = http_get(addr, "/metrics").expect("metrics");
-    text.lines()
-        .find_map(|l| l.strip_prefix(&format!("{name} ")))
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(0.0)
-}
-
 /// With `ulimit -n 256` and 300 idle connections to the HTTP port, `/api/state` answers and
 /// a new robot's observations are accepted.
 #[test]

@@ -109,11 +109,7 @@ pub fn start_server(extra: &[&str]) -> (Proc, String, String) {
     ];
     args.extend_from_slice(extra);
     let p = Proc::spawn(&args);
-    let url = p.line_starting("http://", Duration::from_secs(30));
-    let addr = url
-        .trim_start_matches("http://")
-        .trim_end_matches('/')
-        .to_string();
+    let addr = http_addr(&p);
     (p, endpoint, addr)
 }
 
@@ -152,4 +148,40 @@ pub fn now_ns() -> u64 {
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)
         .unwrap_or(0)
+}
+
+/// A fresh temporary folder for one test (emptied if an earlier run left it).
+pub fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("rf-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// The `.mcap` files in `dir`, sorted.
+pub fn mcap_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .expect("log dir")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// The value of the unlabelled sample `name` in the server's `/metrics` (0 when absent).
+pub fn metric(addr: &str, name: &str) -> f64 {
+    let (_, text) = http_get(addr, "/metrics").expect("metrics");
+    text.lines()
+        .find_map(|l| l.strip_prefix(&format!("{name} ")))
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(0.0)
+}
+
+/// The `http://ADDR/` line a server prints, as `ADDR`.
+pub fn http_addr(p: &Proc) -> String {
+    let url = p.line_starting("http://", Duration::from_secs(30));
+    url.trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_string()
 }
