@@ -3,10 +3,13 @@
 //! - [`server_bench`]: the server benchmark's results and table (`bench_server`).
 //! - [`load`] and [`load_report`]: a `fusion-server` process fed by many simulated robots at
 //!   once, and what is read back from it (`load_test`).
+//! - [`edges`]: the server process at its edges: made-up robot ids, idle sockets under a
+//!   low open-files limit, concurrent requests, live-stream viewers (`bench_edges`).
 //! - [`fuzz`]: a deterministic fuzzer over every decoder and validator (`fuzz`).
 //!
-//! Binaries: `bench_server`, `bench_agent`, `load_test`, `replay_speed`, `trace`, `fuzz`.
+//! Binaries: `bench_server`, `bench_edges`, `bench_agent`, `load_test`, `replay_speed`, `trace`, `fuzz`.
 
+pub mod edges;
 pub mod fuzz;
 pub mod load;
 pub mod load_report;

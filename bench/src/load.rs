@@ -62,7 +62,7 @@ pub fn ball_at(t_s: f64) -> [f64; 2] {
 }
 
 /// Robot `index` of `n`: spread over the pitch on a grid, facing the centre.
-fn pose_of(index: usize, n: usize) -> Pose2 {
+pub fn pose_of(index: usize, n: usize) -> Pose2 {
     let cols = (n as f64).sqrt().ceil().max(1.0) as usize;
     let rows = n.div_ceil(cols);
     let (c, r) = (index % cols, index / cols);
@@ -115,6 +115,16 @@ impl ServerProcess {
     /// default) and an OS-chosen HTTP port; waits for the address it prints. With `keys`,
     /// the network is secured: TLS from the keys' server folder, and their roster.
     pub fn start(bin: &Path, keys: Option<&Keys>) -> Result<ServerProcess> {
+        ServerProcess::start_with(bin, keys, None)
+    }
+
+    /// As [`ServerProcess::start`], under `ulimit -n open_files` when given (through
+    /// `/bin/sh`, which then becomes the server: the same process).
+    pub fn start_with(
+        bin: &Path,
+        keys: Option<&Keys>,
+        open_files: Option<u32>,
+    ) -> Result<ServerProcess> {
         let port = free_loopback_port()?;
         let (endpoint, security) = match keys {
             Some(k) => (
@@ -128,7 +138,16 @@ impl ServerProcess {
             ),
             None => (format!("tcp/127.0.0.1:{port}"), vec!["--open".to_string()]),
         };
-        let mut child = Command::new(bin)
+        let mut command = match open_files {
+            Some(n) => {
+                let mut c = Command::new("/bin/sh");
+                c.args(["-c", &format!("ulimit -n {n} && exec \"$0\" \"$@\"")])
+                    .arg(bin);
+                c
+            }
+            None => Command::new(bin),
+        };
+        let mut child = command
             .arg("serve")
             .args(&security)
             .args(["--listen", &endpoint, "--http", "127.0.0.1:0"])
@@ -263,7 +282,7 @@ fn robot_ids(n: usize) -> Vec<String> {
 
 /// Opens a session to `endpoint` (with `tls`, that robot's certificate) and waits for its
 /// link, so nothing is published into the void.
-async fn connect(endpoint: &str, tls: Option<&Path>) -> Result<zenoh::Session> {
+pub async fn connect(endpoint: &str, tls: Option<&Path>) -> Result<zenoh::Session> {
     let s = NetConfig {
         tls: tls.map(proto::net::TlsFiles::in_dir),
         ..NetConfig::connecting(endpoint)
@@ -399,6 +418,9 @@ pub async fn run(server_bin: &Path, cfg: &LoadConfig, progress: &Progress) -> Re
 
     // Once a second: the server's resident set and how far it has got.
     let mut rss_samples_kb = Vec::new();
+    let mut states_each_s = Vec::new();
+    let mut last_states = before.states_published;
+    let mut intake_queued_max = 0;
     let mut mid = None;
     let mut tick =
         tokio::time::interval_at((t0 + Duration::from_secs(1)).into(), Duration::from_secs(1));
@@ -409,6 +431,11 @@ pub async fn run(server_bin: &Path, cfg: &LoadConfig, progress: &Progress) -> Re
                 let rss = proc_status_kb(pid, "VmRSS:").unwrap_or(0);
                 rss_samples_kb.push(rss);
                 let m = server.metrics()?;
+                if rss_samples_kb.len() <= whole_s {
+                    states_each_s.push(m.states_published.saturating_sub(last_states));
+                }
+                last_states = m.states_published;
+                intake_queued_max = intake_queued_max.max(m.intake_queued);
                 if rss_samples_kb.len() == whole_s / 2 {
                     mid = Some((rss, m.clone()));
                 }
@@ -429,6 +456,26 @@ pub async fn run(server_bin: &Path, cfg: &LoadConfig, progress: &Progress) -> Re
     }
     let publish_s = t0.elapsed().as_secs_f64();
     let sent_ok = sent.ok.load(Relaxed);
+
+    // Recovery: until the server has worked off every backlog: nothing more arriving
+    // (Zenoh's own buffers emptied) and nothing waiting in its intake queue.
+    progress.message("waiting for the server to work off its backlog");
+    let stopped = Instant::now();
+    let (mut last_received, mut changed_at) = (u64::MAX, stopped);
+    let recovery_s = loop {
+        let m = server.metrics()?;
+        let now = Instant::now();
+        if m.received != last_received {
+            (last_received, changed_at) = (m.received, now);
+        }
+        if m.intake_queued == 0 && now.duration_since(changed_at) >= Duration::from_millis(50) {
+            break Some(changed_at.duration_since(stopped).as_secs_f64());
+        }
+        if stopped.elapsed() > Duration::from_secs(10) {
+            break None;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    };
 
     // Drain: until the server has accounted for everything sent, or `drain_s` passes.
     progress.message("draining");
@@ -478,7 +525,16 @@ pub async fn run(server_bin: &Path, cfg: &LoadConfig, progress: &Progress) -> Re
         accepted: end.observations_accepted - before.observations_accepted,
         rejected,
         states_published: states,
-        states_per_s: states as f64 / publish_s.max(1e-9),
+        states_per_s: if states_each_s.is_empty() {
+            states as f64 / publish_s.max(1e-9)
+        } else {
+            states_each_s.iter().sum::<u64>() as f64 / states_each_s.len() as f64
+        },
+        states_each_s,
+        intake_queued_max,
+        recovery_s,
+        robots_tracked_mid: mid_metrics.robots_tracked,
+        robots_tracked_end: end.robots_tracked,
         latency_p50_s: latency.latency_bound(0.5),
         latency_p99_s: latency.latency_bound(0.99),
         latency_mean_s: if latency.latency_count > 0 {

@@ -18,6 +18,10 @@ pub struct Metrics {
     pub latency_buckets: Vec<(f64, u64)>,
     pub latency_count: u64,
     pub latency_sum_s: f64,
+    /// Inputs waiting for the fusion (`rf_intake_queued`).
+    pub intake_queued: u64,
+    /// Robots the server keeps a row for (series of `rf_robot_online`).
+    pub robots_tracked: u64,
 }
 
 fn label<'a>(labels: &'a str, name: &str) -> Option<&'a str> {
@@ -54,6 +58,8 @@ impl Metrics {
                 }
                 "rf_obs_to_state_latency_seconds_count" => m.latency_count = v as u64,
                 "rf_obs_to_state_latency_seconds_sum" => m.latency_sum_s = v,
+                "rf_intake_queued" => m.intake_queued = v as u64,
+                "rf_robot_online" => m.robots_tracked += 1,
                 _ => {}
             }
         }
@@ -139,6 +145,17 @@ pub struct LoadReport {
     pub rejected: BTreeMap<String, u64>,
     pub states_published: u64,
     pub states_per_s: f64,
+    /// States published in each whole second of the load.
+    pub states_each_s: Vec<u64>,
+    /// The most inputs seen waiting in the server's intake queue (sampled once a second).
+    pub intake_queued_max: u64,
+    /// From the last send to the server's last new arrival, once nothing more arrives and
+    /// its intake queue is empty (polled every 10 ms): the server is back to fusing what
+    /// arrives as it arrives.
+    pub recovery_s: Option<f64>,
+    /// Robots the server keeps a row for, at the run's midpoint and at its end.
+    pub robots_tracked_mid: u64,
+    pub robots_tracked_end: u64,
     pub latency_p50_s: Option<f64>,
     pub latency_p99_s: Option<f64>,
     pub latency_mean_s: Option<f64>,
@@ -170,6 +187,11 @@ fn mb(kb: u64) -> String {
 impl LoadReport {
     pub fn rejected_total(&self) -> u64 {
         self.rejected.values().sum()
+    }
+
+    /// The fewest states published in a whole second of the load.
+    pub fn states_min_per_s(&self) -> Option<u64> {
+        self.states_each_s.iter().copied().min()
     }
 
     /// Every observation sent was received and then accepted or rejected, none were
@@ -255,7 +277,29 @@ impl LoadReport {
             ),
             (
                 "states published".into(),
-                format!("{} ({:.1}/s)", self.states_published, self.states_per_s),
+                format!(
+                    "{} ({:.1}/s while loaded; the slowest whole second {})",
+                    self.states_published,
+                    self.states_per_s,
+                    self.states_min_per_s()
+                        .map_or("–".to_string(), |n| format!("{n}/s"))
+                ),
+            ),
+            (
+                "intake queue".into(),
+                format!(
+                    "at most {} waiting (sampled once a second); every backlog worked off {} after the last send",
+                    self.intake_queued_max,
+                    self.recovery_s
+                        .map_or("**not within 10 s**".to_string(), |s| format!("{:.2} s", s))
+                ),
+            ),
+            (
+                "robots the server tracks".into(),
+                format!(
+                    "{} at the midpoint, {} at the end",
+                    self.robots_tracked_mid, self.robots_tracked_end
+                ),
             ),
             (
                 "server resident memory".into(),
@@ -305,6 +349,9 @@ rf_obs_to_state_latency_seconds_bucket{le=\"0.05\"} 10
 rf_obs_to_state_latency_seconds_bucket{le=\"+Inf\"} 10
 rf_obs_to_state_latency_seconds_sum 0.15
 rf_obs_to_state_latency_seconds_count 10
+rf_intake_queued 3
+rf_robot_online{robot=\"miro1\"} 1
+rf_robot_online{robot=\"miro2\"} 0
 # EOF
 ";
 
@@ -313,6 +360,7 @@ rf_obs_to_state_latency_seconds_count 10
         let m = Metrics::parse(TEXT);
         assert_eq!((m.received, m.observations_accepted), (12, 10));
         assert_eq!(m.states_published, 7);
+        assert_eq!((m.intake_queued, m.robots_tracked), (3, 2));
         assert_eq!(m.rejected.get("observation/rate_limited"), Some(&2));
         assert_eq!(m.rejected_total(), 2);
         assert_eq!(m.latency_bound(0.5), Some(0.01));

@@ -96,6 +96,8 @@ pub struct Report {
     pub limiter: Limiter,
     /// The per-robot limit of the throughput run (raised far above the default for it).
     pub throughput_limit_hz: f64,
+    /// Observations the throughput run's sender keeps at most ahead of the server.
+    pub throughput_window: u64,
     /// Robots sharing the latency run's observations.
     pub latency_robots: usize,
     pub replay: ReplaySpeed,
@@ -134,8 +136,9 @@ impl Report {
         ));
         let ratio = self.server.per_s() / self.raw.per_s().max(1e-9);
         out.push_str(&format!(
-            "| observations through Zenoh into the server (10 robots, their rate limit raised to {:.0e}/s for this row) | {:.0} obs/s, {} lost of {} ({:.0} % of raw Zenoh) | ≥ 100 000 obs/s without loss | {} |\n",
+            "| observations through Zenoh into the server (10 robots, their rate limit raised to {:.0e}/s for this row; the sender at most {} observations ahead of the server) | {:.0} obs/s, {} lost of {} ({:.0} % of raw Zenoh) | ≥ 100 000 obs/s without loss | {} |\n",
             self.throughput_limit_hz,
+            self.throughput_window,
             self.server.per_s(),
             self.server.lost(),
             self.server.sent,

@@ -377,8 +377,10 @@ impl Engine {
     fn clock_correction(&mut self, robot_id: &str, lag_s: f64, received: Stamp) -> f64 {
         let check = self.cfg.clock.clone();
         let entry = self.entry_at(robot_id, received);
-        let jump = entry.lags.push(lag_s, &check);
-        if jump.is_some() {
+        let was_confident = entry.lags.confident(&check);
+        let jump = entry.lags.push(received, lag_s, &check);
+        if jump.is_some() || entry.lags.confident(&check) != was_confident {
+            // The robots in the floor changed: it is worked out again at once.
             self.clock_floor = None;
         }
         let floor = self.clock_floor_s(received);

@@ -1,5 +1,5 @@
 //! The server process at its edges: a low open-files limit with hundreds of idle sockets,
-//! and a thousand viewers asking for the state at once.
+//! a thousand viewers asking for the state at once, and two hundred watching its stream.
 
 mod support;
 
@@ -118,4 +118,64 @@ fn a_thousand_concurrent_viewers_are_all_answered() {
         "{n} concurrent GET /api/state: p50 {:?}, p99 {p99:?}",
         times[n / 2]
     );
+}
+
+/// Two hundred live-stream viewers at once each get the state at its rate (30 Hz), and the
+/// server's memory stays bounded.
+#[tokio::test(flavor = "multi_thread")]
+async fn two_hundred_stream_viewers_get_the_state_at_its_rate() {
+    use futures_util::StreamExt;
+    let (server, _endpoint, addr) = start_server(&[]);
+    let n = 200;
+    let watch = Duration::from_secs(3);
+    let mut viewers = Vec::new();
+    for _ in 0..n {
+        let (ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/api/stream"))
+            .await
+            .expect("a viewer connects");
+        viewers.push(ws);
+    }
+    wait_for("all viewers served", Duration::from_secs(10), || {
+        (metric(&addr, "rf_ws_clients") == n as f64).then_some(())
+    });
+    // All watch the same three seconds.
+    let until = tokio::time::Instant::now() + watch;
+    let tasks: Vec<_> = viewers
+        .into_iter()
+        .map(|mut ws| {
+            tokio::spawn(async move {
+                let mut frames = 0u32;
+                while let Ok(Some(Ok(m))) = tokio::time::timeout_at(until, ws.next()).await {
+                    frames += u32::from(m.is_text());
+                }
+                frames
+            })
+        })
+        .collect();
+    let mut frames = Vec::new();
+    for t in tasks {
+        frames.push(t.await.expect("a viewer's task"));
+    }
+    frames.sort_unstable();
+    println!(
+        "{n} viewers for {watch:?}: frames each min {}, median {}, max {}",
+        frames[0],
+        frames[n / 2],
+        frames[n - 1]
+    );
+    // 30 Hz for 3 s is 90 frames; a loaded test machine gets a loose floor.
+    assert!(
+        frames[0] >= 30,
+        "the slowest viewer got {} frames",
+        frames[0]
+    );
+    let peak_kb = std::fs::read_to_string(format!("/proc/{}/status", server.child.id()))
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        })
+        .expect("the server's peak memory");
+    assert!(peak_kb < 200 * 1024, "server peak {peak_kb} kB");
 }

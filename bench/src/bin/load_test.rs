@@ -36,6 +36,14 @@ struct Args {
     /// roster's access-control list (its table goes between the load-test-tls markers).
     #[arg(long)]
     tls: bool,
+    /// A load beyond the server's capacity on purpose (say 100 robots × 2 cameras × 300 Hz):
+    /// losses are expected and reported, not an error; `--doc` fills the overload section.
+    #[arg(long)]
+    overload: bool,
+    /// The section of `--doc` to fill, `load-test-NAME` (default: by the kind of run:
+    /// `load-test`, `load-test-tls` or `load-test-overload`).
+    #[arg(long)]
+    section: Option<String>,
     /// The server binary [default: `fusion-server` beside this one].
     #[arg(long)]
     server: Option<PathBuf>,
@@ -45,13 +53,19 @@ struct Args {
     doc: Option<PathBuf>,
 }
 
-/// Where `--doc` puts the table: one section for the open network, one for TLS.
-fn markers(tls: bool) -> (&'static str, &'static str) {
-    if tls {
-        ("<!-- load-test-tls:begin -->", "<!-- load-test-tls:end -->")
-    } else {
-        ("<!-- load-test:begin -->", "<!-- load-test:end -->")
-    }
+/// Where `--doc` puts the table: a section named by `--section`, else one for the open
+/// network, one for TLS, one for the overload.
+fn markers(args: &Args) -> (String, String) {
+    let name = match &args.section {
+        Some(s) => format!("load-test-{s}"),
+        None if args.overload => "load-test-overload".into(),
+        None if args.tls => "load-test-tls".into(),
+        None => "load-test".into(),
+    };
+    (
+        format!("<!-- {name}:begin -->"),
+        format!("<!-- {name}:end -->"),
+    )
 }
 
 fn main() {
@@ -110,6 +124,12 @@ fn run(args: Args) -> Result<()> {
     if args.tls {
         command.push_str(" --tls");
     }
+    if args.overload {
+        command.push_str(" --overload");
+    }
+    if let Some(s) = &args.section {
+        command.push_str(&format!(" --section {s}"));
+    }
     if let Some(p) = &args.doc {
         command.push_str(&format!(" --doc {}", p.display()));
     }
@@ -122,11 +142,11 @@ fn run(args: Args) -> Result<()> {
         std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
     }
     if let Some(p) = &args.doc {
-        let (begin, end) = markers(args.tls);
-        eval::report::rewrite_section_between(p, begin, end, &table)?;
+        let (begin, end) = markers(&args);
+        eval::report::rewrite_section_between(p, &begin, &end, &table)?;
     }
     anyhow::ensure!(
-        report.nothing_lost(),
+        args.overload || report.nothing_lost(),
         "observations were lost or rejected (see the table)"
     );
     Ok(())

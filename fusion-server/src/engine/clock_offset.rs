@@ -8,13 +8,16 @@
 //! not negative (a negative lag is impossible for an honest clock: its stamps are ahead of
 //! the server's), and never below the configured floor. A robot's offset is its smallest
 //! lag less that floor; once it has enough observations and the offset is beyond a dead
-//! band, its stamps are corrected by it, up to a bound. A clock that jumps is caught: a lag
-//! far below the window's least restarts the window at once (stamps jumped ahead), a long
-//! run of lags far above it restarts it from the run (stamps jumped back).
+//! band, its stamps are corrected by it, up to a bound. The window is long in count and in
+//! time, so that a flood, whose lags grow as it queues, moves nobody's estimate within a
+//! second. A clock that jumps is caught: a lag far below the window's least restarts the
+//! window at once (stamps jumped ahead), a long run of lags far above it (in count and in
+//! time) restarts it from the run (stamps jumped back).
 
+use proto::Stamp;
 use std::collections::VecDeque;
 
-/// Observations the estimate looks back over.
+/// Observations the estimate looks back over, at least.
 pub const OFFSET_WINDOW: usize = 64;
 
 /// What the server assumes about the robots' clocks, and how it corrects them.
@@ -37,8 +40,13 @@ pub struct ClockCheck {
     pub max_correction_s: f64,
     /// A lag this far from the window's least is a clock jump ...
     pub jump_s: f64,
-    /// ... at once when below it, after this many in a row when above it.
+    /// ... at once when below it, after this many in a row when above it, lasting at
+    /// least `jump_back_s`.
     pub jump_run: usize,
+    pub jump_back_s: f64,
+    /// The estimate looks back over at least this long of arrivals (and at least
+    /// [`OFFSET_WINDOW`] observations).
+    pub window_s: f64,
 }
 
 impl Default for ClockCheck {
@@ -52,6 +60,8 @@ impl Default for ClockCheck {
             max_correction_s: 2.0,
             jump_s: 0.05,
             jump_run: 32,
+            jump_back_s: 0.5,
+            window_s: 1.0,
         }
     }
 }
@@ -65,60 +75,123 @@ pub enum ClockJump {
     Back,
 }
 
-/// The recent arrival − capture lags of one robot.
+/// The recent arrival − capture lags of one robot: at least the last [`OFFSET_WINDOW`] of
+/// them and at least the last `window_s` of arrivals, kept as the least lag of each
+/// `window_s / SLOTS` of arrivals, so that a flood (thousands a second, queueing as they
+/// come) is judged over the same time as a trickle, in bounded memory.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct OffsetWindow {
-    lags_s: VecDeque<f64>,
-    /// Consecutive lags more than `jump_s` above the window's least.
+    slots: VecDeque<Slot>,
+    /// Lags in `slots`.
+    samples: usize,
+    /// The last `jump_run` lags, each with its arrival: a jump back restarts from them.
+    tail: VecDeque<(Stamp, f64)>,
+    /// Consecutive lags more than `jump_s` above the window's least, and the arrival of
+    /// the first of them.
     above_run: usize,
+    above_since: Option<Stamp>,
     jumps: u64,
     /// The window restarted at a jump: its lags are evidence enough however few.
     restarted: bool,
 }
 
+/// The least of the lags that arrived within one slot's time of `at`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Slot {
+    at: Stamp,
+    min_lag_s: f64,
+    n: usize,
+}
+
+/// Slots a window's time is cut into.
+pub const SLOTS: u32 = 32;
+
 impl OffsetWindow {
-    /// Adds one lag; says whether it showed a clock jump (the window then restarts).
-    pub fn push(&mut self, lag_s: f64, check: &ClockCheck) -> Option<ClockJump> {
+    /// Adds one lag, of an observation that arrived at `at` (server clock); says whether
+    /// it showed a clock jump (the window then restarts).
+    pub fn push(&mut self, at: Stamp, lag_s: f64, check: &ClockCheck) -> Option<ClockJump> {
         if !lag_s.is_finite() {
             return None;
         }
         let mut jump = None;
         if let Some(min) = self.min_lag_s().filter(|_| self.confident(check)) {
             if lag_s < min - check.jump_s {
-                self.lags_s.clear();
+                self.slots.clear();
+                self.samples = 0;
                 jump = Some(ClockJump::Ahead);
             } else if lag_s > min + check.jump_s {
                 self.above_run += 1;
-                if self.above_run >= check.jump_run.max(1) {
-                    let keep = self.above_run - 1;
-                    let drop = self.lags_s.len().saturating_sub(keep);
-                    self.lags_s.drain(..drop);
+                let since = *self.above_since.get_or_insert(at);
+                // A run long in count and in time: queueing under a flood is not a jump.
+                if self.above_run >= check.jump_run.max(1)
+                    && at.secs_since(since) >= check.jump_back_s
+                {
+                    let keep = (self.above_run - 1).min(self.tail.len());
+                    let run: Vec<(Stamp, f64)> = self
+                        .tail
+                        .iter()
+                        .skip(self.tail.len() - keep)
+                        .copied()
+                        .collect();
+                    self.slots.clear();
+                    self.samples = 0;
+                    for (t, l) in run {
+                        self.add(t, l, check);
+                    }
                     jump = Some(ClockJump::Back);
                 }
             } else {
                 self.above_run = 0;
+                self.above_since = None;
             }
         }
         if jump.is_some() {
             self.above_run = 0;
+            self.above_since = None;
             self.jumps += 1;
             self.restarted = true;
         }
-        if self.lags_s.len() == OFFSET_WINDOW {
-            self.lags_s.pop_front();
+        self.add(at, lag_s, check);
+        if self.tail.len() >= check.jump_run.max(1) {
+            self.tail.pop_front();
         }
-        self.lags_s.push_back(lag_s);
+        self.tail.push_back((at, lag_s));
         jump
+    }
+
+    fn add(&mut self, at: Stamp, lag_s: f64, check: &ClockCheck) {
+        let slot_s = check.window_s / f64::from(SLOTS);
+        match self.slots.back_mut() {
+            Some(s) if at.secs_since(s.at).abs() < slot_s => {
+                s.min_lag_s = s.min_lag_s.min(lag_s);
+                s.n += 1;
+            }
+            _ => self.slots.push_back(Slot {
+                at,
+                min_lag_s: lag_s,
+                n: 1,
+            }),
+        }
+        self.samples += 1;
+        while let Some(front) = self.slots.front().copied() {
+            let enough = self.samples - front.n >= OFFSET_WINDOW;
+            let old = at.secs_since(front.at) > check.window_s;
+            if !(enough && old) {
+                break;
+            }
+            self.slots.pop_front();
+            self.samples -= front.n;
+        }
     }
 
     /// The smallest recent lag.
     pub fn min_lag_s(&self) -> Option<f64> {
-        self.lags_s.iter().copied().reduce(f64::min)
+        self.slots.iter().map(|s| s.min_lag_s).reduce(f64::min)
     }
 
     /// Enough lags to trust the smallest one (or a jump just measured it).
     pub fn confident(&self, check: &ClockCheck) -> bool {
-        !self.lags_s.is_empty() && (self.restarted || self.lags_s.len() >= check.min_samples)
+        self.samples > 0 && (self.restarted || self.samples >= check.min_samples)
     }
 
     /// Clock jumps caught so far.
@@ -163,11 +236,16 @@ pub fn common_floor_s(min_lags_s: impl IntoIterator<Item = f64>, check: &ClockCh
 mod tests {
     use super::*;
 
+    /// The arrival of a robot's k-th observation at 60 Hz.
+    fn at(k: usize) -> Stamp {
+        Stamp(1_000_000_000_000 + k as u64 * 16_666_667)
+    }
+
     fn filled(offset_s: f64, n: usize, check: &ClockCheck) -> OffsetWindow {
         let mut w = OffsetWindow::default();
         for k in 0..n {
             let latency_s = 0.02 + 0.04 * (k % 5) as f64 / 4.0;
-            w.push(offset_s + latency_s, check);
+            w.push(at(k), offset_s + latency_s, check);
         }
         w
     }
@@ -180,9 +258,13 @@ mod tests {
         // A clock 0.2 s behind, latencies 20..60 ms with one queueing spike.
         for k in 0..100 {
             let latency_s = 0.02 + 0.04 * f64::from(k % 5) / 4.0;
-            w.push(0.2 + latency_s + if k == 50 { 1.0 } else { 0.0 }, &check);
+            w.push(
+                at(k as usize),
+                0.2 + latency_s + if k == 50 { 1.0 } else { 0.0 },
+                &check,
+            );
         }
-        w.push(f64::NAN, &check);
+        w.push(at(100), f64::NAN, &check);
         let offset = w.offset_s(0.01).expect("an estimate");
         assert!((offset - 0.21).abs() < 1e-9, "{offset}");
         assert_eq!(w.jumps(), 0, "one spike is not a jump");
@@ -237,24 +319,52 @@ mod tests {
         let check = ClockCheck::default();
         let mut w = filled(0.0, 64, &check);
         // Stamps jump 0.3 s ahead: caught at the first such lag, the estimate follows.
-        assert_eq!(w.push(-0.28, &check), Some(ClockJump::Ahead));
+        assert_eq!(w.push(at(64), -0.28, &check), Some(ClockJump::Ahead));
         assert!((w.min_lag_s().expect("lag") + 0.28).abs() < 1e-9);
         assert!(
             (w.correction_s(0.02, &check) + 0.3).abs() < 1e-9,
             "corrected at once"
         );
-        for _ in 0..64 {
-            w.push(-0.27, &check);
+        for k in 0..64 {
+            w.push(at(65 + k), -0.27, &check);
         }
         // ... and back: caught after a run of high lags, the window keeps the run.
         let mut caught = None;
         for k in 0..check.jump_run {
-            if let Some(j) = w.push(0.03, &check) {
+            if let Some(j) = w.push(at(129 + k), 0.03, &check) {
                 caught = Some((k, j));
             }
         }
         assert_eq!(caught, Some((check.jump_run - 1, ClockJump::Back)));
         assert!((w.min_lag_s().expect("lag") - 0.03).abs() < 1e-9);
         assert_eq!(w.jumps(), 2);
+    }
+
+    #[test]
+    fn a_flood_queueing_up_moves_no_estimate_and_keeps_few_slots() {
+        let check = ClockCheck::default();
+        let mut w = filled(0.0, 64, &check);
+        // 10 000 observations a second for 0.4 s, queueing up to 0.4 s behind: no jump.
+        let t0 = at(64);
+        for k in 0..4_000u64 {
+            let lag_s = 0.02 + 0.4 * k as f64 / 4_000.0;
+            assert_eq!(
+                w.push(Stamp(t0.0 + k * 100_000), lag_s, &check),
+                None,
+                "{k}"
+            );
+        }
+        assert!((w.min_lag_s().expect("lag") - 0.02).abs() < 1e-9);
+        assert!(
+            w.slots.len() <= OFFSET_WINDOW + SLOTS as usize + 1,
+            "{}",
+            w.slots.len()
+        );
+        // Past the window, the old least is forgotten (the lags stay up: a real change).
+        for k in 4_000..30_000u64 {
+            w.push(Stamp(t0.0 + k * 100_000), 0.42, &check);
+        }
+        assert!(w.min_lag_s().expect("lag") > 0.4);
+        assert!(w.slots.len() <= SLOTS as usize + 2, "{}", w.slots.len());
     }
 }

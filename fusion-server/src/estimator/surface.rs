@@ -501,7 +501,8 @@ pub struct Surface {
     walls_version: u64,
 }
 
-/// At most this many sightings wait for the fits (a flood commits them early).
+/// At most this many sightings wait for the fits (a flood commits them early), and at most
+/// this many committed ones are kept for a bounce's before-side.
 const MAX_RECENT: usize = 512;
 
 impl Surface {
@@ -752,7 +753,10 @@ impl Surface {
     /// keeping the last bounce window of them for a bounce's before-side.
     fn commit(&mut self, until_s: f64) {
         let keep_from = until_s - self.cfg.bounce_window_s;
-        let mut i = 0;
+        // The committed sightings are always a prefix of `recent` (it is committed from the
+        // front, and only uncommitted ones join it): start after them, so that a flood,
+        // whose bounce window holds thousands, costs no more per sighting than a trickle.
+        let mut i = self.recent.partition_point(|s| s.committed);
         while i < self.recent.len() {
             let s = self.recent[i];
             let committed = s.t_s <= until_s || self.recent.len() - i > MAX_RECENT;
@@ -784,12 +788,14 @@ impl Surface {
             }
             i += 1;
         }
+        // Of the committed, the last bounce window's are kept, and at most MAX_RECENT of them.
         while self
             .recent
             .front()
-            .is_some_and(|s| s.committed && s.t_s < keep_from)
+            .is_some_and(|s| s.committed && (s.t_s < keep_from || i > MAX_RECENT))
         {
             self.recent.pop_front();
+            i -= 1;
         }
         self.update_tentative();
     }

@@ -2,22 +2,33 @@
 //! received and queued for one worker thread that feeds the engine. Lateness is then
 //! judged on the arrival stamp, so a burst that takes the engine a while to work through
 //! does not turn valid observations into `too_late`; and the Zenoh receive path never
-//! waits for the engine's lock.
+//! waits for the engine's lock (what it refuses is counted by the worker).
 //!
 //! The queue is bounded by count and by bytes. When it is full the *oldest* waiting input
 //! is dropped to make room (counted as a rejection with reason `queue_full`): under
 //! overload the engine works on what is freshest, and the backlog, hence the latency,
 //! stays bounded; when the load stops, what is queued is worked off at once.
+//!
+//! Robots with a history (an input accepted, or a liveliness token) queue apart from the
+//! rest: ids nobody has heard of get a small share of the queue ([`UNPROVEN_CAPACITY`]) and
+//! are dropped first when it is full, so that a flood of made-up ids cannot push out the
+//! observations of robots that have been fusing.
 
 use crate::shell::live::Live;
 use proto::Stamp;
-use std::collections::VecDeque;
+use std::collections::{HashSet, VecDeque};
+use std::sync::atomic::Ordering::Relaxed;
 use std::sync::{Arc, Condvar, Mutex};
 
 /// Samples the queue holds.
 pub const QUEUE_CAPACITY: usize = 16_384;
+/// Of those, samples of robots without a history.
+pub const UNPROVEN_CAPACITY: usize = QUEUE_CAPACITY / 16;
 /// Payload bytes the queue holds.
 pub const QUEUE_MAX_BYTES: u64 = 32 << 20;
+/// Robot ids with a history the queue remembers; beyond, it starts over (they prove
+/// themselves again with their next accepted input).
+const KNOWN_CAPACITY: usize = 4096;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum InputKind {
@@ -51,43 +62,141 @@ struct Queue {
 
 #[derive(Debug, Default)]
 struct QueueState {
-    inputs: VecDeque<Input>,
+    /// Inputs of robots with a history, and of the rest, each in arrival order.
+    proven: VecDeque<Input>,
+    unproven: VecDeque<Input>,
     bytes: u64,
     closed: bool,
+    /// Robot ids (key chunks) with a history.
+    known: HashSet<String>,
+    /// Inputs refused on the receive path and not yet counted: (kind, reason, how many).
+    refused: Vec<(InputKind, &'static str, u64)>,
+}
+
+impl QueueState {
+    fn len(&self) -> usize {
+        self.proven.len() + self.unproven.len()
+    }
+
+    fn full_for(&self, bytes: u64) -> bool {
+        self.len() >= QUEUE_CAPACITY || self.bytes + bytes > QUEUE_MAX_BYTES
+    }
+
+    fn refuse(&mut self, kind: InputKind, reason: &'static str) {
+        match self
+            .refused
+            .iter_mut()
+            .find(|(k, r, _)| *k == kind && *r == reason)
+        {
+            Some((_, _, n)) => *n += 1,
+            None => self.refused.push((kind, reason, 1)),
+        }
+    }
+
+    /// Drops the front of `unproven` (else of `proven`) for room.
+    fn drop_oldest(&mut self, proven_too: bool) -> bool {
+        let old = match self.unproven.pop_front() {
+            Some(old) => old,
+            None if proven_too => match self.proven.pop_front() {
+                Some(old) => old,
+                None => return false,
+            },
+            None => return false,
+        };
+        self.bytes -= old.payload.len() as u64;
+        self.refuse(old.kind, "queue_full");
+        true
+    }
+}
+
+/// What the worker takes from the queue: the oldest input (if any), the inputs left
+/// waiting, and the refusals to count.
+struct Work {
+    input: Option<Input>,
+    left: usize,
+    refused: Vec<(InputKind, &'static str, u64)>,
 }
 
 impl Queue {
-    /// Queues `input`, first dropping the oldest inputs that leave no room; the kinds of
-    /// those dropped. A closed queue drops `input` itself.
-    fn push(&self, input: Input) -> Vec<InputKind> {
+    /// Queues `input` of robot `robot`, first dropping the oldest inputs that leave no room
+    /// (those of robots without a history first); the inputs now queued. A closed queue
+    /// drops `input` itself.
+    fn push(&self, robot: &str, input: Input) -> usize {
         let mut q = self.state.lock().unwrap_or_else(|p| p.into_inner());
         if q.closed {
-            return vec![input.kind];
+            q.refuse(input.kind, "queue_full");
+            return q.len();
         }
         let bytes = input.payload.len() as u64;
-        let mut dropped = Vec::new();
-        while !q.inputs.is_empty()
-            && (q.inputs.len() >= QUEUE_CAPACITY || q.bytes + bytes > QUEUE_MAX_BYTES)
-        {
-            if let Some(old) = q.inputs.pop_front() {
-                q.bytes -= old.payload.len() as u64;
-                dropped.push(old.kind);
+        let proven = q.known.contains(robot);
+        if proven {
+            while q.full_for(bytes) && q.drop_oldest(true) {}
+        } else {
+            while (q.unproven.len() >= UNPROVEN_CAPACITY || q.full_for(bytes))
+                && q.drop_oldest(false)
+            {}
+        }
+        if q.full_for(bytes) {
+            // Full of robots with a history: a newcomer's input waits for no one.
+            q.refuse(input.kind, "queue_full");
+        } else {
+            q.bytes += bytes;
+            if proven {
+                q.proven.push_back(input);
+            } else {
+                q.unproven.push_back(input);
             }
         }
-        q.bytes += bytes;
-        q.inputs.push_back(input);
+        let queued = q.len();
         drop(q);
         self.ready.notify_one();
-        dropped
+        queued
     }
 
-    /// The oldest input, waiting for one; `None` once closed and empty.
-    fn pop(&self) -> Option<Input> {
+    /// Counts an input refused on the receive path (by the worker, soon).
+    fn refuse(&self, kind: InputKind, reason: &'static str) {
+        self.state
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .refuse(kind, reason);
+        self.ready.notify_one();
+    }
+
+    /// Robot `robot` has a history: its inputs queue with the proven from now on.
+    fn know(&self, robot: &str) {
+        let mut q = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        if q.known.len() >= KNOWN_CAPACITY {
+            q.known.clear();
+        }
+        q.known.insert(robot.to_string());
+    }
+
+    /// The oldest input (of either kind of robot) and what there is to count, waiting for
+    /// either; `None` once closed with nothing left.
+    fn pop(&self) -> Option<Work> {
         let mut q = self.state.lock().unwrap_or_else(|p| p.into_inner());
         loop {
-            if let Some(input) = q.inputs.pop_front() {
-                q.bytes -= input.payload.len() as u64;
-                return Some(input);
+            let from_unproven = match (q.proven.front(), q.unproven.front()) {
+                (Some(p), Some(u)) => Some(u.received < p.received),
+                (Some(_), None) => Some(false),
+                (None, Some(_)) => Some(true),
+                (None, None) => None,
+            };
+            let input = match from_unproven {
+                Some(true) => q.unproven.pop_front(),
+                Some(false) => q.proven.pop_front(),
+                None => None,
+            };
+            if let Some(i) = &input {
+                q.bytes -= i.payload.len() as u64;
+            }
+            let refused = std::mem::take(&mut q.refused);
+            if input.is_some() || !refused.is_empty() {
+                return Some(Work {
+                    input,
+                    left: q.len(),
+                    refused,
+                });
             }
             if q.closed {
                 return None;
@@ -141,7 +250,7 @@ impl Intake {
             InputKind::Status => self.max_bytes.1,
         };
         if payload.len() > cap {
-            self.live.count_refused_input(kind.label(), "too_large");
+            self.queue.refuse(kind, "too_large");
             return;
         }
         let input = Input {
@@ -150,8 +259,15 @@ impl Intake {
             payload: payload.to_vec(),
             received,
         };
-        for old in self.queue.push(input) {
-            self.live.count_refused_input(old.label(), "queue_full");
+        let robot = self.live.keys.robot_chunk_of(key).unwrap_or(key);
+        let queued = self.queue.push(robot, input);
+        self.live.stats.intake_queued.store(queued as u64, Relaxed);
+    }
+
+    /// A robot's liveliness token under `key` appeared: the robot has a history.
+    pub fn liveliness(&self, key: &str) {
+        if let Some(robot) = self.live.keys.robot_chunk_of(key) {
+            self.queue.know(robot);
         }
     }
 
@@ -167,12 +283,35 @@ impl Intake {
 }
 
 fn work(live: &Live, queue: &Queue) {
-    while let Some(input) = queue.pop() {
-        match input.kind {
+    // The robots this worker has told the queue about (a copy, so that it asks the queue's
+    // lock only for news).
+    let mut known: HashSet<String> = HashSet::new();
+    while let Some(Work {
+        input,
+        left,
+        refused,
+    }) = queue.pop()
+    {
+        live.stats.intake_queued.store(left as u64, Relaxed);
+        for (kind, reason, n) in refused {
+            live.count_refused_inputs(kind.label(), reason, n);
+        }
+        let Some(input) = input else { continue };
+        let accepted = match input.kind {
             InputKind::Observation => {
                 live.on_observation_at(&input.key, &input.payload, input.received)
             }
             InputKind::Status => live.on_status_at(&input.key, &input.payload, input.received),
+        };
+        if accepted {
+            let robot = live.keys.robot_chunk_of(&input.key).unwrap_or(&input.key);
+            if !known.contains(robot) {
+                if known.len() >= KNOWN_CAPACITY {
+                    known.clear();
+                }
+                known.insert(robot.to_string());
+                queue.know(robot);
+            }
         }
     }
 }
@@ -251,16 +390,80 @@ mod tests {
             payload: vec![0; 10],
             received: Stamp(seq as u64),
         };
-        let mut dropped = 0;
+        q.know("miro1");
         for seq in 0..QUEUE_CAPACITY + 5 {
-            dropped += q.push(input(seq)).len();
+            let queued = q.push("miro1", input(seq));
+            assert_eq!(queued, (seq + 1).min(QUEUE_CAPACITY));
         }
-        assert_eq!(dropped, 5);
-        assert_eq!(q.pop().map(|i| i.key), Some("k5".to_string()));
+        let first = q.pop().expect("work");
+        assert_eq!(first.input.map(|i| i.key), Some("k5".to_string()));
+        assert_eq!(first.left, QUEUE_CAPACITY - 1);
+        assert_eq!(
+            first.refused,
+            vec![(InputKind::Observation, "queue_full", 5)]
+        );
         q.close();
         let rest = std::iter::from_fn(|| q.pop()).count();
         assert_eq!(rest, QUEUE_CAPACITY - 1);
-        // Closed: nothing more is taken.
-        assert_eq!(q.push(input(0)).len(), 1);
+        // Closed: nothing more is taken, and what was refused is still counted.
+        q.push("miro1", input(0));
+        let last = q.pop().expect("the refusal");
+        assert!(last.input.is_none());
+        assert_eq!(
+            last.refused,
+            vec![(InputKind::Observation, "queue_full", 1)]
+        );
+    }
+
+    /// A flood of made-up ids fills only their share of the queue and is dropped first:
+    /// the inputs of robots with a history all stay, in arrival order with the rest.
+    #[test]
+    fn made_up_ids_take_only_their_share_and_go_first() {
+        let q = Queue::default();
+        let input = |key: &str, at: u64| Input {
+            kind: InputKind::Observation,
+            key: key.to_string(),
+            payload: vec![0; 10],
+            received: Stamp(at),
+        };
+        q.know("honest");
+        let mut at = 0;
+        for k in 0..QUEUE_CAPACITY * 2 {
+            at += 1;
+            q.push(&format!("fake{k}"), input("fake", at));
+            if k % 4 == 0 {
+                at += 1;
+                q.push("honest", input("honest", at));
+            }
+        }
+        let honest = QUEUE_CAPACITY * 2 / 4;
+        {
+            let s = q.state.lock().expect("queue");
+            assert_eq!(s.unproven.len(), UNPROVEN_CAPACITY);
+            assert_eq!(s.proven.len(), honest);
+        }
+        // Full of honest inputs now: the made-up ids' go first, then a newcomer is refused.
+        for _ in 0..QUEUE_CAPACITY {
+            at += 1;
+            q.push("honest", input("honest", at));
+        }
+        at += 1;
+        q.push("newcomer", input("newcomer", at));
+        q.close();
+        let mut last = 0;
+        let (mut kinds, mut refused) = (std::collections::BTreeMap::new(), 0);
+        while let Some(w) = q.pop() {
+            refused += w.refused.iter().map(|r| r.2).sum::<u64>();
+            if let Some(i) = w.input {
+                assert!(i.received.0 > last, "in arrival order");
+                last = i.received.0;
+                *kinds.entry(i.key).or_insert(0) += 1;
+            }
+        }
+        assert_eq!(kinds.get("fake"), None, "{kinds:?}");
+        assert_eq!(kinds.get("honest"), Some(&QUEUE_CAPACITY));
+        assert_eq!(kinds.get("newcomer"), None);
+        let sent = QUEUE_CAPACITY * 2 + honest + QUEUE_CAPACITY + 1;
+        assert_eq!(refused as usize, sent - QUEUE_CAPACITY);
     }
 }

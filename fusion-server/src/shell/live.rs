@@ -286,11 +286,19 @@ impl Live {
     /// Counts an input refused in the shell before the engine saw it (oversized, or the
     /// intake queue full): a rejection, and one more input left out of the match log.
     pub fn count_refused_input(&self, kind: &'static str, reason: &'static str) {
-        self.stats.inputs_received.fetch_add(1, Relaxed);
+        self.count_refused_inputs(kind, reason, 1);
+    }
+
+    /// Counts `n` inputs refused in the shell for one reason.
+    pub fn count_refused_inputs(&self, kind: &'static str, reason: &'static str, n: u64) {
+        self.stats.inputs_received.fetch_add(n, Relaxed);
         if self.log.is_some() {
-            self.stats.record_skipped_rejected.fetch_add(1, Relaxed);
+            self.stats.record_skipped_rejected.fetch_add(n, Relaxed);
         }
-        self.count_rejection(kind, reason);
+        let mut inner = self.lock();
+        for _ in 0..n {
+            inner.engine.count_rejection(kind, reason);
+        }
     }
 
     /// An observation payload arrived on `key` just now.
@@ -300,7 +308,8 @@ impl Live {
 
     /// An observation payload that arrived on `key` at `now` (the clock read when it was
     /// received, before any queue or lock: a backlog must not make it look late).
-    pub fn on_observation_at(&self, key: &str, payload: &[u8], now: Stamp) {
+    /// Says whether it was accepted.
+    pub fn on_observation_at(&self, key: &str, payload: &[u8], now: Stamp) -> bool {
         self.stats.inputs_received.fetch_add(1, Relaxed);
         let robot = self.key_robot(key);
         let mut inner = self.lock();
@@ -323,10 +332,12 @@ impl Live {
                 if self.publish_on_update {
                     self.updated.notify_one();
                 }
+                true
             }
             Err(e) => {
                 drop(inner);
                 self.log_rejection("observation", key, &e);
+                false
             }
         }
     }
@@ -337,15 +348,20 @@ impl Live {
     }
 
     /// A status payload that arrived on `key` at `now`.
-    pub fn on_status_at(&self, key: &str, payload: &[u8], now: Stamp) {
+    /// Says whether it was accepted.
+    pub fn on_status_at(&self, key: &str, payload: &[u8], now: Stamp) -> bool {
         self.stats.inputs_received.fetch_add(1, Relaxed);
         let robot = self.key_robot(key);
         let mut inner = self.lock();
         let result = inner.engine.status(robot, payload, now);
         self.record(LogKind::Status, key, now, payload, result.is_ok());
         drop(inner);
-        if let Err(e) = result {
-            self.log_rejection("status", key, &e);
+        match result {
+            Ok(_) => true,
+            Err(e) => {
+                self.log_rejection("status", key, &e);
+                false
+            }
         }
     }
 

@@ -81,6 +81,8 @@ impl EncodeMetric for Histogram {
 pub struct ShellStats {
     /// Observation and status payloads that arrived (whatever became of them).
     pub inputs_received: AtomicU64,
+    /// Inputs waiting in the intake queue for the engine.
+    pub intake_queued: AtomicU64,
     pub states_published: AtomicU64,
     pub ws_clients: AtomicU64,
     pub ws_frames_sent: AtomicU64,
@@ -249,7 +251,7 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 35] = [
+    let simple: [(&str, &str, &str, u64); 36] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -327,6 +329,12 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
             "counter",
             "New robot ids that took the fusion's place of one quiet for 30 s, its table of 1024 being full (a flood of made-up ids).",
             core.robot_slots_reused,
+        ),
+        (
+            "rf_intake_queued",
+            "gauge",
+            "Observations and statuses received and waiting for the fusion (bounded; the oldest are dropped as queue_full).",
+            shell.intake_queued.load(Relaxed),
         ),
         (
             "rf_states_published_total",

@@ -232,12 +232,18 @@ pub async fn serve_all(
         })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to statuses: {e}"))?;
-    let l = live.clone();
+    let (l, i) = (live.clone(), intake.clone());
     let _alive = session
         .liveliness()
         .declare_subscriber(keys.all_robot_liveliness())
         .history(true)
-        .callback(move |s| l.on_liveliness(s.key_expr().as_str(), s.kind() == SampleKind::Put))
+        .callback(move |s| {
+            let (key, alive) = (s.key_expr().as_str(), s.kind() == SampleKind::Put);
+            if alive {
+                i.liveliness(key);
+            }
+            l.on_liveliness(key, alive)
+        })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to robot liveliness: {e}"))?;
     let l = live.clone();
