@@ -171,6 +171,8 @@ async fn raw_zenoh(n: u64) -> Result<Throughput> {
         received,
         secs,
         payload_bytes: payload.len(),
+        reordered: 0,
+        clock_corrected: 0,
     })
 }
 
@@ -234,7 +236,13 @@ async fn server_throughput(n: u64) -> Result<Throughput> {
         tokio::time::sleep(Duration::from_millis(1)).await;
     }
     let secs = t0.elapsed().as_secs_f64();
-    let accepted = live.with_engine(|e| e.counters().observations_accepted);
+    let (accepted, reordered, clock_corrected) = live.with_engine(|e| {
+        (
+            e.counters().observations_accepted,
+            e.fusion().counters().reordered,
+            e.counters().observations_clock_corrected,
+        )
+    });
     let rejected = live.with_engine(|e| e.counters().rejected.clone());
     if !rejected.is_empty() {
         eprintln!("      rejected: {rejected:?}");
@@ -247,6 +255,8 @@ async fn server_throughput(n: u64) -> Result<Throughput> {
         received: accepted,
         secs,
         payload_bytes: 0,
+        reordered,
+        clock_corrected,
     })
 }
 

@@ -33,10 +33,19 @@ pub trait ReplaySink {
     /// A state asked for at `at` (`None`: no estimate yet), before it is written: at the
     /// asked times or on the grid, or, when nothing else is asked, at the recorded states.
     fn state(&mut self, _at: Stamp, _state: Option<&BallState>) {}
+
+    /// Whether it keeps what is written (when not, states are not even encoded for it).
+    fn writes(&self) -> bool {
+        true
+    }
 }
 
 impl ReplaySink for () {
     fn write(&mut self, _: &str, _: &str, _: Stamp, _: &[u8]) {}
+
+    fn writes(&self) -> bool {
+        false
+    }
 }
 
 impl<S: ReplaySink> ReplaySink for Option<S> {
@@ -51,6 +60,10 @@ impl<S: ReplaySink> ReplaySink for Option<S> {
             s.state(at, state);
         }
     }
+
+    fn writes(&self) -> bool {
+        self.as_ref().is_some_and(|s| s.writes())
+    }
 }
 
 /// Both sinks, the first then the second.
@@ -63,6 +76,10 @@ impl<A: ReplaySink, B: ReplaySink> ReplaySink for (A, B) {
     fn state(&mut self, at: Stamp, state: Option<&BallState>) {
         self.0.state(at, state);
         self.1.state(at, state);
+    }
+
+    fn writes(&self) -> bool {
+        self.0.writes() || self.1.writes()
     }
 }
 
@@ -80,7 +97,7 @@ pub struct ReplayReport {
     pub states_identical: u64,
     /// The first recorded state that differed: its log time and both payloads.
     pub first_difference: Option<(Stamp, String, String)>,
-    /// States written to the new log.
+    /// States computed with an estimate (and written to the new log, when there is one).
     pub states_written: u64,
     /// Times a state was asked for (or recorded) when there was no estimate yet.
     pub states_without_estimate: u64,
@@ -154,7 +171,7 @@ fn emit_state(
     engine: &Engine,
     keys: &KeySpace,
     at: Stamp,
-    asked: bool,
+    (asked, compared): (bool, bool),
     out: &mut Out,
 ) -> Option<Vec<u8>> {
     let state = engine.ball_state(at);
@@ -172,9 +189,13 @@ fn emit_state(
         report.states_without_estimate += 1;
         return None;
     };
+    report.states_written += 1;
+    if !(compared || sink.writes()) {
+        // Nobody reads it: the encoding (most of a state's cost) is skipped.
+        return None;
+    }
     let payload = proto::encode(&state);
     sink.write(&keys.ball_state(), "BallState", at, &payload);
-    report.states_written += 1;
     Some(payload)
 }
 
@@ -222,7 +243,7 @@ pub fn replay(
         }
         let at = m.log_time;
         while let Some(t) = times.next_before(Some(at)) {
-            emit_state(&engine, &keys, t, true, &mut out);
+            emit_state(&engine, &keys, t, (true, false), &mut out);
         }
         let robot = keys.robot_id_of(&m.topic);
         match m.schema_name.as_str() {
@@ -244,7 +265,7 @@ pub fn replay(
             "BallState" => {
                 out.report.states_recorded += 1;
                 let asked = times.asks_nothing();
-                let now = emit_state(&engine, &keys, at, asked, &mut out);
+                let now = emit_state(&engine, &keys, at, (asked, true), &mut out);
                 let report = &mut out.report;
                 if now.as_deref() == Some(m.data.as_slice()) {
                     report.states_identical += 1;
@@ -269,7 +290,7 @@ pub fn replay(
     }
     // Due at or after the last message: the ball coasting on, stopping, lost.
     while let Some(t) = times.next_before(None) {
-        emit_state(&engine, &keys, t, true, &mut out);
+        emit_state(&engine, &keys, t, (true, false), &mut out);
     }
     progress(messages.len(), messages.len());
     let mut report = out.report;

@@ -94,6 +94,10 @@ impl<W: Write> StatesCsv<W> {
 impl<W: Write> ReplaySink for StatesCsv<W> {
     fn write(&mut self, _: &str, _: &str, _: Stamp, _: &[u8]) {}
 
+    fn writes(&self) -> bool {
+        false
+    }
+
     fn state(&mut self, at: Stamp, state: Option<&BallState>) {
         if self.error.is_some() {
             return;

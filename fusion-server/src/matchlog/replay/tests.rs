@@ -206,3 +206,18 @@ fn reordered_observations_are_in_the_summary() {
     assert_eq!(json["observations_replayed"], report.fusion.replayed);
     assert!(summary_text(&report, 0.1).contains("out of order      1 slotted in"));
 }
+
+/// A replay whose sink keeps nothing (`replay --no-log`) skips encoding the states but
+/// reports the same: the same states with an estimate, the same fusion.
+#[test]
+fn a_replay_nobody_reads_reports_the_same() {
+    let opts = ReplayOptions::default();
+    let (kept, sink) = run(&rolling_ball(), &opts);
+    let unread = match replay(&rolling_ball(), &opts, &mut (), &mut |_, _| {}) {
+        Ok(r) => r,
+        Err(e) => panic!("replay failed: {e}"),
+    };
+    assert!(kept.states_written > 10, "{kept:?}");
+    assert_eq!(kept.states_written, sink.written.len() as u64);
+    assert_eq!(unread, kept);
+}
