@@ -763,6 +763,21 @@ impl Engine {
         *self.counters.rejected.entry((kind, reason)).or_default() += 1;
     }
 
+    /// Counts `n` rejections decided before the engine saw the inputs, of `robot` when it
+    /// is known (a made-up id gets no entry).
+    pub fn count_rejections(
+        &mut self,
+        kind: &'static str,
+        reason: &'static str,
+        robot: Option<&str>,
+        n: u64,
+    ) {
+        *self.counters.rejected.entry((kind, reason)).or_default() += n;
+        if let Some(entry) = robot.and_then(|r| self.robots.get_mut(r)) {
+            entry.rejected += n;
+        }
+    }
+
     /// Rejected inputs so far, by `kind/reason` (as the metrics label them).
     pub fn rejected_by_reason(&self) -> BTreeMap<String, u64> {
         self.counters

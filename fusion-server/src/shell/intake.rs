@@ -9,14 +9,17 @@
 //! overload the engine works on what is freshest, and the backlog, hence the latency,
 //! stays bounded; when the load stops, what is queued is worked off at once.
 //!
-//! Robots with a history (an input accepted, or a liveliness token) queue apart from the
-//! rest: ids nobody has heard of get a small share of the queue ([`UNPROVEN_CAPACITY`]) and
+//! A robot's inputs over its rate limit (the engine's `[limits]`, the same token bucket)
+//! are refused here, before they are copied, queued or decoded: a flooding robot costs
+//! the fusion nothing. Robots with a history (an input accepted, or a liveliness token)
+//! queue apart from the rest: ids nobody has heard of get a small share of the queue ([`UNPROVEN_CAPACITY`]) and
 //! are dropped first when it is full, so that a flood of made-up ids cannot push out the
 //! observations of robots that have been fusing.
 
+use crate::engine::TokenBucket;
 use crate::shell::live::Live;
 use proto::Stamp;
-use std::collections::{HashSet, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::atomic::Ordering::Relaxed;
 use std::sync::{Arc, Condvar, Mutex};
 
@@ -26,9 +29,26 @@ pub const QUEUE_CAPACITY: usize = 16_384;
 pub const UNPROVEN_CAPACITY: usize = QUEUE_CAPACITY / 16;
 /// Payload bytes the queue holds.
 pub const QUEUE_MAX_BYTES: u64 = 32 << 20;
-/// Robot ids with a history the queue remembers; beyond, it starts over (they prove
-/// themselves again with their next accepted input).
+/// Robot ids with a history, and rate buckets, the queue remembers; beyond, it starts
+/// over (robots prove themselves again with their next accepted input, buckets start full
+/// as the engine's do for a new robot).
 const KNOWN_CAPACITY: usize = 4096;
+
+/// The per-robot rate limit (messages a second, burst).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Limit {
+    rate_hz: f64,
+    burst: f64,
+}
+
+impl Default for Limit {
+    fn default() -> Self {
+        Limit {
+            rate_hz: f64::INFINITY,
+            burst: f64::INFINITY,
+        }
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum InputKind {
@@ -58,7 +78,12 @@ struct Input {
 struct Queue {
     state: Mutex<QueueState>,
     ready: Condvar,
+    limit: Limit,
 }
+
+/// Inputs refused on the receive path and not yet counted: (kind, reason, the robot when
+/// the reason is its own, how many).
+type Refused = Vec<(InputKind, &'static str, Option<String>, u64)>;
 
 #[derive(Debug, Default)]
 struct QueueState {
@@ -69,8 +94,9 @@ struct QueueState {
     closed: bool,
     /// Robot ids (key chunks) with a history.
     known: HashSet<String>,
-    /// Inputs refused on the receive path and not yet counted: (kind, reason, how many).
-    refused: Vec<(InputKind, &'static str, u64)>,
+    /// Each robot's rate bucket.
+    buckets: HashMap<String, TokenBucket>,
+    refused: Refused,
 }
 
 impl QueueState {
@@ -82,15 +108,34 @@ impl QueueState {
         self.len() >= QUEUE_CAPACITY || self.bytes + bytes > QUEUE_MAX_BYTES
     }
 
-    fn refuse(&mut self, kind: InputKind, reason: &'static str) {
+    fn refuse(&mut self, kind: InputKind, reason: &'static str, robot: Option<&str>) {
         match self
             .refused
             .iter_mut()
-            .find(|(k, r, _)| *k == kind && *r == reason)
+            .find(|(k, r, id, _)| *k == kind && *r == reason && id.as_deref() == robot)
         {
-            Some((_, _, n)) => *n += 1,
-            None => self.refused.push((kind, reason, 1)),
+            Some((_, _, _, n)) => *n += 1,
+            None => self
+                .refused
+                .push((kind, reason, robot.map(str::to_string), 1)),
         }
+    }
+
+    /// Takes a token from `robot`'s bucket at `now`.
+    fn within_rate(&mut self, robot: &str, now: Stamp, limit: Limit) -> bool {
+        if limit.rate_hz.is_infinite() {
+            return true;
+        }
+        if let Some(b) = self.buckets.get_mut(robot) {
+            return b.take(now, limit.rate_hz, limit.burst);
+        }
+        if self.buckets.len() >= KNOWN_CAPACITY {
+            self.buckets.clear();
+        }
+        let mut b = TokenBucket::full(limit.burst);
+        let ok = b.take(now, limit.rate_hz, limit.burst);
+        self.buckets.insert(robot.to_string(), b);
+        ok
     }
 
     /// Drops the front of `unproven` (else of `proven`) for room.
@@ -104,7 +149,7 @@ impl QueueState {
             None => return false,
         };
         self.bytes -= old.payload.len() as u64;
-        self.refuse(old.kind, "queue_full");
+        self.refuse(old.kind, "queue_full", None);
         true
     }
 }
@@ -114,18 +159,29 @@ impl QueueState {
 struct Work {
     input: Option<Input>,
     left: usize,
-    refused: Vec<(InputKind, &'static str, u64)>,
+    refused: Refused,
 }
 
 impl Queue {
-    /// Queues `input` of robot `robot`, first dropping the oldest inputs that leave no room
-    /// (those of robots without a history first); the inputs now queued. A closed queue
-    /// drops `input` itself.
+    /// Queues `input` of robot `robot` (refused when over the robot's rate), first dropping
+    /// the oldest inputs that leave no room (those of robots without a history first); the
+    /// inputs now queued. A closed queue drops `input` itself.
     fn push(&self, robot: &str, input: Input) -> usize {
         let mut q = self.state.lock().unwrap_or_else(|p| p.into_inner());
         if q.closed {
-            q.refuse(input.kind, "queue_full");
-            return q.len();
+            q.refuse(input.kind, "queue_full", None);
+            let queued = q.len();
+            drop(q);
+            self.ready.notify_one();
+            return queued;
+        }
+        if !q.within_rate(robot, input.received, self.limit) {
+            q.refuse(input.kind, "rate_limited", Some(robot));
+            let queued = q.len();
+            drop(q);
+            // The worker counts it.
+            self.ready.notify_one();
+            return queued;
         }
         let bytes = input.payload.len() as u64;
         let proven = q.known.contains(robot);
@@ -138,7 +194,7 @@ impl Queue {
         }
         if q.full_for(bytes) {
             // Full of robots with a history: a newcomer's input waits for no one.
-            q.refuse(input.kind, "queue_full");
+            q.refuse(input.kind, "queue_full", None);
         } else {
             q.bytes += bytes;
             if proven {
@@ -158,7 +214,7 @@ impl Queue {
         self.state
             .lock()
             .unwrap_or_else(|p| p.into_inner())
-            .refuse(kind, reason);
+            .refuse(kind, reason, None);
         self.ready.notify_one();
     }
 
@@ -224,12 +280,19 @@ pub struct Intake {
 impl Intake {
     /// Starts the worker thread feeding `live`.
     pub fn start(live: Arc<Live>) -> std::io::Result<Arc<Intake>> {
-        let queue = Arc::new(Queue::default());
-        let (l, q) = (live.clone(), queue.clone());
-        let max_bytes = live.with_engine(|e| {
+        let (max_bytes, limit) = live.with_engine(|e| {
             let c = e.config();
-            (c.max_observation_bytes, c.max_status_bytes)
+            let limit = Limit {
+                rate_hz: c.admission.rate_limit_hz,
+                burst: c.admission.rate_burst,
+            };
+            ((c.max_observation_bytes, c.max_status_bytes), limit)
         });
+        let queue = Arc::new(Queue {
+            limit,
+            ..Queue::default()
+        });
+        let (l, q) = (live.clone(), queue.clone());
         let worker = std::thread::Builder::new()
             .name("intake".into())
             .spawn(move || work(&l, &q))?;
@@ -293,8 +356,8 @@ fn work(live: &Live, queue: &Queue) {
     }) = queue.pop()
     {
         live.stats.intake_queued.store(left as u64, Relaxed);
-        for (kind, reason, n) in refused {
-            live.count_refused_inputs(kind.label(), reason, n);
+        for (kind, reason, robot, n) in refused {
+            live.count_refused_inputs(kind.label(), reason, robot.as_deref(), n);
         }
         let Some(input) = input else { continue };
         let accepted = match input.kind {
@@ -400,7 +463,7 @@ mod tests {
         assert_eq!(first.left, QUEUE_CAPACITY - 1);
         assert_eq!(
             first.refused,
-            vec![(InputKind::Observation, "queue_full", 5)]
+            vec![(InputKind::Observation, "queue_full", None, 5)]
         );
         q.close();
         let rest = std::iter::from_fn(|| q.pop()).count();
@@ -411,7 +474,7 @@ mod tests {
         assert!(last.input.is_none());
         assert_eq!(
             last.refused,
-            vec![(InputKind::Observation, "queue_full", 1)]
+            vec![(InputKind::Observation, "queue_full", None, 1)]
         );
     }
 
@@ -453,7 +516,7 @@ mod tests {
         let mut last = 0;
         let (mut kinds, mut refused) = (std::collections::BTreeMap::new(), 0);
         while let Some(w) = q.pop() {
-            refused += w.refused.iter().map(|r| r.2).sum::<u64>();
+            refused += w.refused.iter().map(|r| r.3).sum::<u64>();
             if let Some(i) = w.input {
                 assert!(i.received.0 > last, "in arrival order");
                 last = i.received.0;
@@ -465,5 +528,53 @@ mod tests {
         assert_eq!(kinds.get("newcomer"), None);
         let sent = QUEUE_CAPACITY * 2 + honest + QUEUE_CAPACITY + 1;
         assert_eq!(refused as usize, sent - QUEUE_CAPACITY);
+    }
+
+    /// A robot over its rate is refused on the receive path, counted against it, and
+    /// leaves the others' inputs alone.
+    #[test]
+    fn a_robot_over_its_rate_is_refused_before_it_is_queued() {
+        let q = Queue {
+            limit: Limit {
+                rate_hz: 10.0,
+                burst: 5.0,
+            },
+            ..Queue::default()
+        };
+        let input = |key: &str, at_s: f64| Input {
+            kind: InputKind::Observation,
+            key: key.to_string(),
+            payload: vec![0; 10],
+            received: Stamp((at_s * 1e9) as u64 + 1_000_000_000),
+        };
+        // One second: the flooder sends 100, the other 10.
+        for k in 0..100 {
+            q.push("flood", input("flood", k as f64 / 100.0));
+            if k % 10 == 0 {
+                q.push("calm", input("calm", k as f64 / 100.0));
+            }
+        }
+        q.close();
+        let (mut flood, mut calm, mut limited) = (0, 0, Vec::new());
+        while let Some(w) = q.pop() {
+            limited.extend(w.refused);
+            match w.input.map(|i| i.key).as_deref() {
+                Some("flood") => flood += 1,
+                Some("calm") => calm += 1,
+                _ => {}
+            }
+        }
+        // The burst of 5 and about 10 a second after it.
+        assert!((14..=16).contains(&flood), "{flood}");
+        assert_eq!(calm, 10);
+        assert_eq!(
+            limited,
+            vec![(
+                InputKind::Observation,
+                "rate_limited",
+                Some("flood".to_string()),
+                100 - flood
+            )]
+        );
     }
 }

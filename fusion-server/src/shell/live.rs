@@ -81,6 +81,10 @@ struct Inner {
 /// Rejections are logged at most this often, all reasons together (they are always
 /// counted, by reason, in the metrics).
 const REJECT_LOG_EVERY: Duration = Duration::from_secs(5);
+/// At most this many engine events (clock corrections and jumps, robots evicted) are
+/// logged a second; the rest are counted in /metrics only (a flood's events would
+/// otherwise cost more than the fusion).
+const EVENT_LOGS_PER_S: u32 = 10;
 
 #[derive(Debug)]
 pub struct Live {
@@ -103,6 +107,8 @@ pub struct Live {
     view_max_age: OnceLock<Duration>,
     log: Option<Arc<dyn MatchLog>>,
     last_reject_log: Mutex<Option<Instant>>,
+    /// The second the event lines are counted in, and how many were logged in it.
+    event_logs: Mutex<(Option<Instant>, u32)>,
     /// The replay's control, when the server replays a match log.
     replay: OnceLock<Arc<ReplayControl>>,
     control_access: OnceLock<ControlAccess>,
@@ -139,6 +145,7 @@ impl Live {
             view_max_age: OnceLock::new(),
             log,
             last_reject_log: Mutex::new(None),
+            event_logs: Mutex::new((None, 0)),
             replay: OnceLock::new(),
             control_access: OnceLock::new(),
             ws_send_timeout: OnceLock::new(),
@@ -245,6 +252,28 @@ impl Live {
         f(&self.lock().engine)
     }
 
+    /// Logs an engine event, at most [`EVENT_LOGS_PER_S`] a second.
+    fn log_event(&self, e: &EngineEvent) {
+        let mut budget = self.event_logs.lock().unwrap_or_else(|p| p.into_inner());
+        let (since, used) = &mut *budget;
+        if since.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+            (*since, *used) = (Some(Instant::now()), 0);
+        }
+        *used += 1;
+        if *used > EVENT_LOGS_PER_S {
+            if *used == EVENT_LOGS_PER_S + 1 {
+                tracing::warn!("more robot events this second: counted in /metrics, not logged");
+            }
+            return;
+        }
+        match e {
+            EngineEvent::ClockCorrected {
+                correction_s: 0.0, ..
+            } => tracing::info!("{e}"),
+            _ => tracing::warn!("{e}"),
+        }
+    }
+
     fn log_rejection(&self, what: &str, key: &str, e: &dyn std::fmt::Display) {
         let mut last = self
             .last_reject_log
@@ -283,22 +312,22 @@ impl Live {
         self.lock().engine.count_rejection(kind, reason);
     }
 
-    /// Counts an input refused in the shell before the engine saw it (oversized, or the
-    /// intake queue full): a rejection, and one more input left out of the match log.
-    pub fn count_refused_input(&self, kind: &'static str, reason: &'static str) {
-        self.count_refused_inputs(kind, reason, 1);
-    }
-
-    /// Counts `n` inputs refused in the shell for one reason.
-    pub fn count_refused_inputs(&self, kind: &'static str, reason: &'static str, n: u64) {
+    /// Counts inputs refused in the shell before the engine saw them (oversized, over the
+    /// robot's rate, or the intake queue full): rejections, and inputs left out of the match
+    /// log.
+    /// Counts `n` inputs of `robot` (when known) refused in the shell for one reason.
+    pub fn count_refused_inputs(
+        &self,
+        kind: &'static str,
+        reason: &'static str,
+        robot: Option<&str>,
+        n: u64,
+    ) {
         self.stats.inputs_received.fetch_add(n, Relaxed);
         if self.log.is_some() {
             self.stats.record_skipped_rejected.fetch_add(n, Relaxed);
         }
-        let mut inner = self.lock();
-        for _ in 0..n {
-            inner.engine.count_rejection(kind, reason);
-        }
+        self.lock().engine.count_rejections(kind, reason, robot, n);
     }
 
     /// An observation payload arrived on `key` just now.
@@ -316,14 +345,7 @@ impl Live {
         let result = inner.engine.observation(robot, payload, now);
         self.record(LogKind::Observation, key, now, payload, result.is_ok());
         for e in inner.engine.take_events() {
-            match e {
-                EngineEvent::ClockCorrected {
-                    correction_s: 0.0, ..
-                } => {
-                    tracing::info!("{e}")
-                }
-                _ => tracing::warn!("{e}"),
-            }
+            self.log_event(&e);
         }
         match result {
             Ok(_) => {
