@@ -312,10 +312,9 @@ impl Live {
         self.lock().engine.count_rejection(kind, reason);
     }
 
-    /// Counts inputs refused in the shell before the engine saw them (oversized, over the
-    /// robot's rate, or the intake queue full): rejections, and inputs left out of the match
-    /// log.
-    /// Counts `n` inputs of `robot` (when known) refused in the shell for one reason.
+    /// Counts `n` inputs of `robot` (when known) refused in the shell for one reason before
+    /// the engine saw them (oversized, over the robot's rate, or the intake queue full):
+    /// rejections, and inputs left out of the match log.
     pub fn count_refused_inputs(
         &self,
         kind: &'static str,
