@@ -3,6 +3,8 @@
 //! thousand concurrent state requests, and hundreds of live-stream viewers.
 
 use serde::Serialize;
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
 
 /// A burst of made-up ids, then honest robots.
 #[derive(Debug, Clone, Serialize)]
@@ -49,6 +51,47 @@ pub struct Gets {
     pub p50_s: Option<f64>,
     pub p99_s: Option<f64>,
     pub max_s: Option<f64>,
+}
+
+/// `n` threads, released together, each open a connection to `addr` and `GET
+/// /api/state` (`Connection: close`); the time from its connect to the whole 200 answer.
+pub fn concurrent_gets(addr: &str, n: usize) -> std::io::Result<Gets> {
+    let barrier = std::sync::Arc::new(std::sync::Barrier::new(n));
+    let threads = (0..n)
+        .map(|_| {
+            let (addr, barrier) = (addr.to_string(), barrier.clone());
+            std::thread::Builder::new()
+                .stack_size(64 << 10)
+                .spawn(move || {
+                    barrier.wait();
+                    let t0 = Instant::now();
+                    let mut c = std::net::TcpStream::connect(&addr).ok()?;
+                    c.set_read_timeout(Some(Duration::from_secs(20))).ok()?;
+                    c.write_all(b"GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+                        .ok()?;
+                    let mut answer = Vec::new();
+                    c.read_to_end(&mut answer).ok()?;
+                    answer
+                        .starts_with(b"HTTP/1.1 200")
+                        .then(|| t0.elapsed().as_secs_f64())
+                })
+        })
+        .collect::<std::io::Result<Vec<_>>>()?;
+    let mut times: Vec<f64> = threads
+        .into_iter()
+        .filter_map(|t| t.join().ok().flatten())
+        .collect();
+    times.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        (!times.is_empty()).then(|| times[((q * times.len() as f64) as usize).min(times.len() - 1)])
+    };
+    Ok(Gets {
+        requests: n,
+        answered: times.len(),
+        p50_s: at(0.5),
+        p99_s: at(0.99),
+        max_s: times.last().copied(),
+    })
 }
 
 /// Live-stream viewers.

@@ -216,6 +216,18 @@ pub fn check_targets(
     out
 }
 
+/// Writes a report as pretty JSON, creating the folder.
+pub fn write_json(path: &std::path::Path, report: &impl Serialize) -> anyhow::Result<()> {
+    use anyhow::Context;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(path, serde_json::to_string_pretty(report)?)
+        .with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
+
 pub const SECTION_BEGIN: &str = "<!-- evaluate:begin -->";
 pub const SECTION_END: &str = "<!-- evaluate:end -->";
 

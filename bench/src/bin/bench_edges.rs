@@ -13,14 +13,13 @@
 //! `bench-edges` section of docs/benchmarks.md.
 
 use anyhow::{Context, Result};
-use bench::edges::{Burst, EdgesReport, FdLimit, Gets, Viewers};
+use bench::edges::{Burst, EdgesReport, FdLimit, Gets, Viewers, concurrent_gets};
 use bench::load::{ServerProcess, connect, http_get, observation, pose_of};
 use bench::load_report::proc_status_kb;
 use clap::Parser;
 use fusion_server::{Clock, SystemClock};
 use futures_util::StreamExt;
 use proto::KeySpace;
-use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tools::progress::Progress;
@@ -110,10 +109,7 @@ async fn run(args: Args) -> Result<()> {
     let table = report.markdown(&command);
     println!("{table}");
     if let Some(p) = &args.json {
-        if let Some(d) = p.parent() {
-            std::fs::create_dir_all(d)?;
-        }
-        std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
+        eval::report::write_json(p, &report)?;
     }
     if let Some(p) = &args.doc {
         eval::report::rewrite_section_between(
@@ -269,43 +265,7 @@ fn metric(server: &ServerProcess, name: &str) -> Result<u64> {
 
 fn gets(bin: &Path, n: usize) -> Result<Gets> {
     let server = ServerProcess::start(bin, None)?;
-    let barrier = std::sync::Arc::new(std::sync::Barrier::new(n));
-    let threads: Vec<_> = (0..n)
-        .map(|_| {
-            let (addr, barrier) = (server.http_addr.clone(), barrier.clone());
-            std::thread::Builder::new()
-                .stack_size(64 << 10)
-                .spawn(move || {
-                    barrier.wait();
-                    let t0 = Instant::now();
-                    let mut c = std::net::TcpStream::connect(&addr).ok()?;
-                    c.set_read_timeout(Some(Duration::from_secs(20))).ok()?;
-                    c.write_all(b"GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
-                        .ok()?;
-                    let mut answer = Vec::new();
-                    c.read_to_end(&mut answer).ok()?;
-                    answer
-                        .starts_with(b"HTTP/1.1 200")
-                        .then(|| t0.elapsed().as_secs_f64())
-                })
-                .context("a client thread")
-        })
-        .collect::<Result<_>>()?;
-    let mut times: Vec<f64> = threads
-        .into_iter()
-        .filter_map(|t| t.join().ok().flatten())
-        .collect();
-    times.sort_by(f64::total_cmp);
-    let at = |q: f64| {
-        (!times.is_empty()).then(|| times[((q * times.len() as f64) as usize).min(times.len() - 1)])
-    };
-    Ok(Gets {
-        requests: n,
-        answered: times.len(),
-        p50_s: at(0.5),
-        p99_s: at(0.99),
-        max_s: times.last().copied(),
-    })
+    Ok(concurrent_gets(&server.http_addr, n)?)
 }
 
 async fn viewers(bin: &Path, n: usize, seconds: f64) -> Result<Viewers> {

@@ -11,6 +11,7 @@
 //! generated section of docs/benchmarks.md.
 
 use anyhow::{Context, Result};
+use bench::load_report::{proc_cpu_s, proc_status_kb};
 use bench::server_bench::*;
 use clap::Parser;
 use fusion_server::ServeConfig;
@@ -597,21 +598,6 @@ impl<S: fusion_server::ReplaySink> fusion_server::ReplaySink for Filter<'_, S> {
     }
 }
 
-fn proc_status_kb(pid: u32, field: &str) -> Option<u64> {
-    let text = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    text.lines()
-        .find_map(|l| l.strip_prefix(field))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
-}
-
-fn proc_cpu_s(pid: u32) -> Option<f64> {
-    let text = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    let after = text.rsplit_once(')')?.1;
-    let f: Vec<&str> = after.split_whitespace().collect();
-    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
-}
-
 /// A server process fed by `robots` simulated robots for `seconds`.
 async fn memory(robots: usize, seconds: f64) -> Result<Memory> {
     let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
@@ -706,10 +692,7 @@ async fn run(args: Args) -> Result<()> {
     let table = report.markdown();
     println!("{table}");
     if let Some(p) = &args.json {
-        if let Some(d) = p.parent() {
-            std::fs::create_dir_all(d)?;
-        }
-        std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
+        eval::report::write_json(p, &report)?;
     }
     if let Some(p) = &args.doc {
         eval::report::rewrite_section(p, &table)?;

@@ -136,10 +136,7 @@ fn run(args: Args) -> Result<()> {
     let table = report.markdown(&command);
     println!("{table}");
     if let Some(p) = &args.json {
-        if let Some(d) = p.parent() {
-            std::fs::create_dir_all(d)?;
-        }
-        std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
+        eval::report::write_json(p, &report)?;
     }
     if let Some(p) = &args.doc {
         let (begin, end) = markers(&args);

@@ -136,7 +136,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.json {
-        write_json(path, &rep)?;
+        eval::report::write_json(path, &rep)?;
     }
     if let Some(path) = &args.doc {
         let section = doc_section(&args, &names, &rep, &table, started.elapsed().as_secs_f64());
@@ -230,7 +230,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     println!("{text}");
     let secs = started.elapsed().as_secs_f64();
     if let Some(path) = &args.json {
-        write_json(path, &rep)?;
+        eval::report::write_json(path, &rep)?;
     }
     if let Some(path) = &args.markdown {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
@@ -291,7 +291,7 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
     let text = photo_eval::markdown(&results);
     println!("{text}");
     if let Some(path) = &args.json {
-        write_json(path, &results)?;
+        eval::report::write_json(path, &results)?;
     }
     if let Some(path) = &args.doc {
         let mut cmd = String::from("cargo run --release -p eval --bin evaluate -- --photos");
@@ -323,16 +323,5 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         "wrote {}",
         photo_eval::write_plot(&args.plots, "photos_recall_by_width.png", &results)?
     );
-    Ok(())
-}
-
-/// Writes a report as pretty JSON, creating the folder.
-fn write_json(path: &std::path::Path, report: &impl serde::Serialize) -> anyhow::Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    std::fs::write(path, serde_json::to_string_pretty(report)?)
-        .with_context(|| format!("writing {}", path.display()))?;
-    eprintln!("wrote {}", path.display());
     Ok(())
 }

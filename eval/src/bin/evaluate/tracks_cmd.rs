@@ -285,7 +285,7 @@ pub fn run(args: &TrackArgs, out: &Outputs) -> anyhow::Result<()> {
     println!("{text}");
     let secs = started.elapsed().as_secs_f64();
     if let Some(path) = out.json {
-        crate::write_json(path, &rep)?;
+        eval::report::write_json(path, &rep)?;
     }
     if let Some(path) = out.markdown {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
