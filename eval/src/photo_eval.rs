@@ -11,7 +11,7 @@ use anyhow::{Context, Result};
 use robot_agent::RgbImage;
 use robot_agent::labels::BallBox;
 use robot_agent::labels::eval::{LabelEval, LabelReport, SIZE_BANDS_PX, TimingMs, band_name};
-use robot_agent::{CandidateClassifier, Detector, DetectorConfig, NoClock};
+use robot_agent::{CandidateClassifier, Detector, DetectorConfig, NoClock, detect_photo};
 use serde::Serialize;
 use sim::Frame;
 use sim::{Background, PhotoProfile, synth_photo};
@@ -53,7 +53,7 @@ fn frame_of(image: RgbImage) -> Frame {
     }
 }
 
-/// Scores one photo into `eval`.
+/// Scores one photo into `eval`, every candidate proposed with it.
 fn score(
     eval: &mut LabelEval,
     ms: &mut Vec<f64>,
@@ -64,14 +64,21 @@ fn score(
     classifier: &dyn CandidateClassifier,
 ) -> Result<()> {
     let started = Instant::now();
-    let candidates = detector.detect(image, None, classifier, &mut NoClock)?;
+    let candidates = detect_photo(
+        detector,
+        classifier,
+        eval.min_probability(),
+        image,
+        None,
+        &mut NoClock,
+    )?;
     let took_ms = started.elapsed().as_secs_f64() * 1e3;
     ms.push(took_ms);
-    let scored: Vec<_> = candidates
+    let candidates: Vec<_> = candidates
         .iter()
         .map(|c| (c.circle, c.probability))
         .collect();
-    eval.add(name, balls, &scored, took_ms);
+    eval.add_stages(name, balls, &candidates, took_ms);
     Ok(())
 }
 
@@ -196,7 +203,87 @@ fn pct(v: Option<f64>) -> String {
     v.map_or("–".into(), |v| format!("{:.1}", 100.0 * v))
 }
 
-/// The results as markdown: one table of the sets, one of recall by ball width.
+/// The names of the per-stage columns ([`stage_cells`]).
+fn stage_columns() -> Vec<String> {
+    let mut columns = vec!["candidate recall %".to_string()];
+    columns.extend((0..SIZE_BANDS_PX.len()).map(|i| format!("candidates {}", band_name(i))));
+    columns.extend([
+        "candidates per photo mean (p90)".to_string(),
+        "checker precision %".to_string(),
+        "checker recall %".to_string(),
+    ]);
+    columns
+}
+
+/// A report's per-stage cells, in the order of [`stage_columns`]: the share of labelled
+/// balls some candidate is on, overall and per width band (with the band's balls), the
+/// candidates per photo, and the checker's precision and recall per candidate at the
+/// report's `min_probability` (with their counts).
+fn stage_cells(r: &LabelReport) -> Vec<String> {
+    let mut cells = vec![pct(r.candidate_recall)];
+    cells.extend(
+        r.bands
+            .iter()
+            .map(|b| format!("{} ({})", pct(b.recall_candidate), b.balls)),
+    );
+    let c = &r.checker;
+    cells.extend([
+        r.candidates_per_frame
+            .map_or("–".into(), |f| format!("{:.1} ({:.1})", f.mean, f.p90)),
+        format!(
+            "{} ({}/{})",
+            pct(c.precision),
+            c.accepted_on_ball,
+            c.accepted
+        ),
+        format!("{} ({}/{})", pct(c.recall), c.accepted_on_ball, c.on_ball),
+    ]);
+    cells
+}
+
+/// What a per-stage table ([`stage_table_head`]) holds, for the line above it.
+pub fn stage_table_note(min_probability: f64) -> String {
+    format!(
+        "Per stage: the candidates (the share of labelled balls some candidate's centre is \
+         in, whatever the checker made of it, overall and per width band with the band's \
+         balls; candidates per photo), and the checker per candidate at `min_probability` \
+         {min_probability} (precision: accepted candidates on a ball over those accepted; \
+         recall: accepted candidates on a ball over those on a ball; a candidate refused \
+         outright counts as below)."
+    )
+}
+
+/// The header and rule lines of a per-stage markdown table: the `leading` columns, then
+/// the stages' (the share of labelled balls some candidate is on, overall and per width
+/// band; candidates per photo, mean and p90; the checker's precision and recall per
+/// candidate), each line ended.
+pub fn stage_table_head(leading: &[&str]) -> String {
+    let columns: Vec<String> = leading
+        .iter()
+        .map(|c| c.to_string())
+        .chain(stage_columns())
+        .collect();
+    format!(
+        "| {} |\n|{}\n",
+        columns.join(" | "),
+        "---|".repeat(columns.len())
+    )
+}
+
+/// One row of a per-stage table ([`stage_table_head`]): the `leading` cells, then the
+/// report's stages (band cells with the band's balls, checker cells with their counts),
+/// without a line end.
+pub fn stage_table_row(leading: &[&str], r: &LabelReport) -> String {
+    let cells: Vec<String> = leading
+        .iter()
+        .map(|c| c.to_string())
+        .chain(stage_cells(r))
+        .collect();
+    format!("| {} |", cells.join(" | "))
+}
+
+/// The results as markdown: one table of the sets, one of recall by ball width, one of
+/// the stages.
 pub fn markdown(results: &[PhotoSetResult]) -> String {
     let mut s = String::from(
         "| photos | source | images | with a ball | recall % | precision % | false per image | \
@@ -239,6 +326,16 @@ pub fn markdown(results: &[PhotoSetResult]) -> String {
                 b.balls
             ));
         }
+        s.push('\n');
+    }
+    s.push('\n');
+    if let Some(r) = results.first() {
+        s.push_str(&stage_table_note(r.report.min_probability));
+        s.push_str("\n\n");
+    }
+    s.push_str(&stage_table_head(&["photos"]));
+    for r in results {
+        s.push_str(&stage_table_row(&[&r.name], &r.report));
         s.push('\n');
     }
     s
@@ -285,4 +382,116 @@ pub fn write_plot(dir: &Path, name: &str, results: &[PhotoSetResult]) -> Result<
     let path = dir.join(name);
     write_png(&recall_chart(results), &path)?;
     Ok(path.display().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use robot_agent::Circle;
+    use robot_agent::labels::eval::is_hit;
+
+    fn ball(x: f64, y: f64, w: f64) -> BallBox {
+        BallBox {
+            x_min_px: x - w / 2.0,
+            y_min_px: y - w / 2.0,
+            x_max_px: x + w / 2.0,
+            y_max_px: y + w / 2.0,
+        }
+    }
+
+    /// A set of two photos: a 15 px ball with two candidates on it (one refused, one below
+    /// the threshold) and one off it (accepted and published), and a photo without a ball
+    /// or a candidate.
+    fn result() -> PhotoSetResult {
+        let mut eval = LabelEval::new(0.5);
+        let balls = [ball(50.0, 50.0, 15.0)];
+        let circle = |x: f64, y: f64, r: f64| Circle {
+            center_px: [x, y],
+            radius_px: r,
+            score: 1.0,
+        };
+        let (on, off) = (circle(51.0, 49.0, 7.0), circle(200.0, 20.0, 6.0));
+        assert!(is_hit(&on, &balls[0]) && !is_hit(&off, &balls[0]));
+        eval.add_stages(
+            "a",
+            &balls,
+            &[(on, None), (on, Some(0.3)), (off, Some(0.9))],
+            1.0,
+        );
+        eval.add_stages("b", &[], &[], 1.0);
+        PhotoSetResult {
+            name: "two photos".into(),
+            source: "simulated",
+            report: eval.report(None),
+        }
+    }
+
+    #[test]
+    fn the_photo_tables_gain_a_stage_table() {
+        let text = markdown(&[result()]);
+        assert!(
+            text.contains(
+                "| photos | candidate recall % | candidates < 10 px | candidates 10–20 px | \
+                 candidates 20–40 px | candidates >= 40 px | candidates per photo mean (p90) | \
+                 checker precision % | checker recall % |\n|---|---|---|---|---|---|---|---|---|\n"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "| two photos | 100.0 | – (0) | 100.0 (1) | – (0) | – (0) | 1.5 (2.7) | \
+                 0.0 (0/1) | 0.0 (0/2) |"
+            ),
+            "{text}"
+        );
+        assert!(text.contains("at `min_probability` 0.5 ("), "{text}");
+        // The existing tables stay.
+        assert!(text.contains("| photos | source | images |"), "{text}");
+        assert!(
+            text.contains(
+                "| two photos | – (0 balls) | 0.0 (1 balls) | – (0 balls) | – (0 balls) |"
+            ),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn a_labelled_photo_stage_row_has_the_header_columns() {
+        let mut eval = LabelEval::new(0.5);
+        let circle = |x: f64, y: f64| Circle {
+            center_px: [x, y],
+            radius_px: 10.0,
+            score: 1.0,
+        };
+        // A 30 px ball: candidates on it accepted and below, two off it accepted.
+        eval.add_stages(
+            "a",
+            &[ball(55.0, 55.0, 30.0)],
+            &[
+                (circle(55.0, 55.0), Some(0.9)),
+                (circle(50.0, 60.0), Some(0.2)),
+                (circle(150.0, 60.0), Some(0.6)),
+                (circle(160.0, 20.0), Some(0.7)),
+            ],
+            1.0,
+        );
+        let report = eval.report(None);
+        let leading = ["event", "split", "detector"];
+        let head = stage_table_head(&leading);
+        let row = stage_table_row(&["2019", "held out", "net"], &report);
+        assert!(
+            head.starts_with("| event | split | detector | candidate recall % |"),
+            "{head}"
+        );
+        assert_eq!(
+            row,
+            "| 2019 | held out | net | 100.0 | – (0) | – (0) | 100.0 (1) | – (0) | \
+             4.0 (4.0) | 33.3 (1/3) | 50.0 (1/2) |"
+        );
+        let bars = |line: &str| line.matches('|').count();
+        let mut lines = head.lines();
+        assert_eq!(lines.next().map(bars), Some(bars(&row)));
+        assert_eq!(lines.next().map(bars), Some(bars(&row)));
+        assert_eq!(stage_cells(&report).len(), stage_columns().len());
+    }
 }

@@ -6,6 +6,7 @@ use crate::calibration::camera::CameraModel;
 use crate::detection::detect::{
     CandidateClassifier, DetectError, Detector, DetectorConfig, StageClock,
 };
+use crate::detection::heatnet::HeatNet;
 use crate::image::RgbImage;
 use crate::pipeline::{FrameContext, FrameResult, SharedBall, ValidationConfig, process_frame};
 use crate::projection::kinematics::camera_pose;
@@ -101,6 +102,16 @@ impl Agent {
             shared: None,
             frames: 0,
             rejections: BTreeMap::new(),
+        })
+    }
+
+    /// The same agent with this candidate network (a trained model's) in place of the
+    /// shipped one, used when the detector's proposer runs one.
+    pub fn with_candidate_net(self, net: HeatNet) -> Result<Self, DetectError> {
+        let detector = Detector::with_net(self.config.detector, net)?;
+        Ok(Agent {
+            detectors: [detector.clone(), detector],
+            ..self
         })
     }
 

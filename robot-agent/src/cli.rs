@@ -13,9 +13,12 @@
 //! - [`progress`]: the progress bar of the long photo commands.
 
 pub mod calibrate;
+#[cfg(feature = "train")]
+pub mod detector_train;
 pub mod evaluate;
 pub mod labelled;
 pub mod labelled_patches;
+#[cfg(feature = "train")]
 pub mod net_train;
 pub mod progress;
 pub mod train;
@@ -28,6 +31,7 @@ mod detect_cmd;
 mod evaluate_cmd;
 mod pr_chart;
 mod run_cmd;
+#[cfg(feature = "train")]
 mod train_cmd;
 
 use anyhow::Result;
@@ -48,8 +52,10 @@ enum Command {
     Calibrate(calibrate_cmd::CalibrateArgs),
     /// Fits the colour detector's window to the balls of labelled photos.
     CalibrateColour(calibrate_colour_cmd::CalibrateColourArgs),
-    /// Trains the ball network (default) or the HOG + SVM filter.
-    Train(train_cmd::TrainArgs),
+    /// Trains the colour-patch ball network (default), the two-stage detector or the
+    /// HOG + SVM filter.
+    #[cfg(feature = "train")]
+    Train(Box<train_cmd::TrainArgs>),
     /// Finds the ball in a folder of photos (no index, no pose): every candidate, as JSON lines.
     Detect(detect_cmd::DetectArgs),
     /// Scores the detector on photos with labelled ball boxes (Pascal VOC or YOLO).
@@ -75,7 +81,8 @@ pub fn main() -> Result<()> {
         }
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::CalibrateColour(args) => calibrate_colour_cmd::run(args),
-        Command::Train(args) => train_cmd::run(args),
+        #[cfg(feature = "train")]
+        Command::Train(args) => train_cmd::run(*args),
         Command::Detect(args) => detect_cmd::run(args),
         Command::Evaluate(args) => evaluate_cmd::run(*args),
     }

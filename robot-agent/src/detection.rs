@@ -29,26 +29,40 @@
 //! - [`ballnet_data`]: the network's training samples from labelled photos, and their
 //!   augmentation.
 //! - [`ballnet_train`]: training the network on a CPU, and its weights file.
+//! - [`nn`]: the forward pass of the detector's small networks (im2col and matrix
+//!   products, depthwise convolutions, pooling) and their weights files.
+//! - [`heatnet`]: the candidate network, a heatmap of balls over the downscaled frame,
+//!   and its peaks as candidates.
+//! - [`checker`]: the grey checker, a network on a candidate's 32×32 brightness-normalised
+//!   grey patch giving the ball's probability and its refined circle, a batch at a time.
+//! - [`detector_train`]: training both networks on a CPU, and the detector's weights file.
 //! - [`detect`]: one frame to ball candidates through the stages above.
 //! - [`rectify`]: local perspective views of a fisheye frame, where a ball is round.
 //! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
 //!   what became of it, and the photo with the candidates drawn.
 
 pub mod ballnet;
+#[cfg(feature = "train")]
 pub mod ballnet_data;
+#[cfg(feature = "train")]
 pub mod ballnet_train;
 pub mod blob_circle;
+pub mod checker;
 pub mod classifier;
 pub mod colour_fit;
 pub mod components;
 pub mod contrast;
 pub mod detect;
 mod detect_config;
+#[cfg(feature = "train")]
+pub mod detector_train;
+pub mod heatnet;
 pub mod hog;
 pub mod hough;
 pub mod hsv;
 pub mod kmeans;
 pub mod morphology;
+pub mod nn;
 pub mod patch;
 #[cfg(test)]
 mod patch_fixtures;

@@ -59,9 +59,13 @@ pub use agent::{Agent, FrameInput, PipelineConfig};
 pub use calibration::calibrate::{Board, Calibration, LensModel, calibrate_with, detect_views};
 pub use calibration::camera::CameraModel;
 pub use detection::ballnet::BallNet;
+pub use detection::checker::Checker;
 pub use detection::detect::{CandidateClassifier, Detector, DetectorConfig, NoClock, StageClock};
+pub use detection::heatnet::{HeatNet, PeakConfig};
 pub use detection::hog::HOG_LEN;
+pub use detection::hough::Circle;
 pub use detection::patch::{Patch, PatchConfig, extract as extract_patch};
+pub use detection::photo::{PhotoCandidate, PhotoRejection, detect_photo};
 pub use detection::svm::Model as SvmModel;
 pub use detection::train::miners as training_miners;
 pub use image::RgbImage;
@@ -73,7 +77,8 @@ pub use io::ros_msg_fixtures;
 pub use pipeline::ValidationConfig;
 pub use runtime::frame::{RobotState, StoredFrame};
 pub use runtime::models::{
-    ClassifierArgs, DetectorPreset, classifier as load_classifier, load_config, load_models,
+    ClassifierArgs, DetectorPreset, candidate_net as load_candidate_net,
+    classifier as load_classifier, detector as load_detector, load_config, load_models,
 };
 pub use runtime::ros_frames::RosTopics;
 pub use runtime::source::{FrameSource, McapSource};

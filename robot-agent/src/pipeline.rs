@@ -136,7 +136,14 @@ pub fn process_frame(
     ctx: &FrameContext<'_>,
     clock: &mut dyn StageClock,
 ) -> Result<FrameResult, DetectError> {
-    let candidates = detector.detect(image, Some(ctx.model), classifier, clock)?;
+    // With the candidate network, the tracked ball's predicted place is always a candidate.
+    let hint = detector
+        .config()
+        .proposer
+        .net()
+        .then(|| predicted_circle(ctx, validation))
+        .flatten();
+    let candidates = detector.detect_with_hint(image, Some(ctx.model), hint, classifier, clock)?;
     let mut result = FrameResult::default();
     for candidate in candidates {
         result
@@ -151,6 +158,38 @@ pub fn process_frame(
     }
     clock.mark("project");
     Ok(result)
+}
+
+/// Where the team's fresh shared ball should appear in this camera's image: its centre
+/// and radius in pixels, or `None` when there is no fresh state or it is behind the camera
+/// or off the image.
+pub fn predicted_circle(ctx: &FrameContext<'_>, cfg: &ValidationConfig) -> Option<Circle> {
+    let shared = ctx.shared.filter(|s| s.age_s <= cfg.shared_max_age_s)?;
+    let r_m = ctx.pitch.ball_radius_m;
+    let cam = crate::projection::kinematics::camera_pose(&ctx.pose, &ctx.head, ctx.camera);
+    let world = nalgebra::Vector3::new(shared.position_m[0], shared.position_m[1], r_m);
+    let p = cam.field_from_camera.inverse() * (world - cam.centre_m);
+    let distance_m = p.norm();
+    if p.z <= 0.0 || distance_m <= r_m {
+        return None;
+    }
+    let centre = ctx.model.project([p.x, p.y, p.z])?;
+    // A point on the ball's rim, across the line of sight.
+    let across = p.cross(&nalgebra::Vector3::y()).normalize() * r_m;
+    let rim = ctx
+        .model
+        .project([p.x + across.x, p.y + across.y, p.z + across.z])?;
+    let radius_px = (rim[0] - centre[0]).hypot(rim[1] - centre[1]).max(1.0);
+    let (w, h) = (
+        f64::from(ctx.model.intrinsics.width_px),
+        f64::from(ctx.model.intrinsics.height_px),
+    );
+    let inside = (0.0..w).contains(&centre[0]) && (0.0..h).contains(&centre[1]);
+    inside.then_some(Circle {
+        center_px: centre,
+        radius_px,
+        score: 0.0,
+    })
 }
 
 fn validate(

@@ -129,3 +129,45 @@ fn a_sighting_far_from_a_fresh_shared_ball_is_refused_but_not_from_a_stale_one()
     shared.age_s = 0.1;
     assert!(run(POSE, &image, Some(shared)).sighting.is_some());
 }
+
+#[test]
+fn the_shared_ball_is_predicted_where_the_detector_finds_it() {
+    let p = [0.3, 0.1];
+    let image = frame(&POSE, p, 0.04, 1.0);
+    let found = run(POSE, &image, None);
+    let (seen, _) = found.scored[0];
+    let pitch = Pitch::default();
+    let lens = lens();
+    let shared = SharedBall {
+        position_m: p,
+        covariance_m2: [1e-3, 0.0, 0.0, 1e-3],
+        age_s: 0.1,
+    };
+    let mut ctx = FrameContext {
+        camera: Camera::Left,
+        model: &lens,
+        pose: POSE,
+        pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4],
+        head: head(),
+        pitch: &pitch,
+        shared: Some(shared),
+    };
+    let cfg = ValidationConfig::default();
+    let predicted = predicted_circle(&ctx, &cfg).unwrap();
+    let d = (predicted.center_px[0] - seen.center_px[0])
+        .hypot(predicted.center_px[1] - seen.center_px[1]);
+    assert!(d < 2.0, "{predicted:?} vs {seen:?}");
+    let ratio = predicted.radius_px / seen.radius_px;
+    assert!((0.7..1.4).contains(&ratio), "{predicted:?} vs {seen:?}");
+    // A stale state, or one behind the camera, predicts nothing.
+    ctx.shared = Some(SharedBall {
+        age_s: 5.0,
+        ..shared
+    });
+    assert!(predicted_circle(&ctx, &cfg).is_none());
+    ctx.shared = Some(SharedBall {
+        position_m: [POSE.x_m - 1.0, POSE.y_m],
+        ..shared
+    });
+    assert!(predicted_circle(&ctx, &cfg).is_none());
+}

@@ -149,3 +149,92 @@ fn calibrate_colour_writes_a_window_evaluate_takes() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
+    let dir = tempfile::tempdir().unwrap();
+    // The shipped two-stage detector: at most 16 candidates a photo (12 heatmap peaks and
+    // 4 appearance proposals), each stage scored.
+    let out = Command::new(AGENT_CLI)
+        .args(["evaluate", "--detector", "two-stage", "--images"])
+        .arg(photos())
+        .arg("--json")
+        .arg(dir.path().join("two.json"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("two.json")).unwrap())
+            .unwrap();
+    assert!(r["candidates_per_frame"]["max"].as_u64().unwrap() <= 16);
+    // Floors far under what it found when it was made (6 of 12 balls had a candidate).
+    assert!(
+        r["balls_proposed"].as_u64().unwrap() >= 3,
+        "{}",
+        r["balls_proposed"]
+    );
+    assert!(r["checker"]["candidates"].as_u64().unwrap() > 0);
+
+    // A tiny detector trained from the photos in seconds, with its recipe and held-out
+    // score, taken by `evaluate --model` (which then runs it as the two-stage detector).
+    let model = dir.path().join("tiny.safetensors");
+    let out = Command::new(AGENT_CLI)
+        .args(["train", "--model", "detector", "--images"])
+        .arg(photos())
+        .args([
+            "--hold-out",
+            "20240222",
+            "--candidate-epochs",
+            "1",
+            "--checker-epochs",
+            "1",
+            "--copies",
+            "2",
+            "--out",
+        ])
+        .arg(&model)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}\n{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("the candidate stage reached"), "{stdout}");
+    let bytes = std::fs::read(&model).unwrap();
+    robot_agent::Checker::from_safetensors(&bytes).unwrap();
+    let net = robot_agent::HeatNet::from_safetensors(&bytes).unwrap();
+    assert!(net.metadata()["held_out"].contains("recall"));
+    assert!(net.metadata()["command"].contains("--model detector"));
+    let out = Command::new(AGENT_CLI)
+        .args(["evaluate", "--images"])
+        .arg(photos())
+        .arg("--model")
+        .arg(&model)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("candidates:"), "{stdout}");
+    // A truncated detector file is refused by name.
+    let broken = dir.path().join("broken.safetensors");
+    std::fs::write(&broken, &bytes[..bytes.len() / 2]).unwrap();
+    let out = Command::new(AGENT_CLI)
+        .args(["evaluate", "--images"])
+        .arg(photos())
+        .arg("--model")
+        .arg(&broken)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("broken.safetensors"));
+}

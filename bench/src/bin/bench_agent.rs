@@ -1,7 +1,7 @@
 //! `bench_agent`: the robot agent's perception pipeline's time per frame on one core, by
 //! stage, on frames rendered from simulated matches; and the renderer's own speed.
 //!
-//! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--detector colour|net`, `--classifier MODEL`,
+//! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--detector colour|net|two-stage`, `--classifier MODEL`,
 //! `--doc FILE`.
 //!
 //! Frames are rendered first (not timed), then each goes through the agent's whole
@@ -14,7 +14,9 @@ use proto::{Camera, Pitch};
 use robot_agent::RgbImage;
 use robot_agent::StageClock;
 use robot_agent::{Agent, FrameInput, PipelineConfig};
-use robot_agent::{ClassifierArgs, DetectorPreset, load_classifier as classifier, load_models};
+use robot_agent::{
+    ClassifierArgs, DetectorPreset, load_candidate_net, load_classifier as classifier, load_models,
+};
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig};
@@ -36,8 +38,9 @@ struct BenchArgs {
     /// Seconds of each match (both cameras of every robot at 5 Hz).
     #[arg(long, default_value_t = 20.0)]
     seconds: f64,
-    /// The detector timed: the MiRo's colour path, or appearance proposals judged by the
-    /// ball network (its own section of the document).
+    /// The detector timed: the MiRo's colour path, appearance proposals judged by the
+    /// colour-patch network (`net`) or the two-stage detector (`two-stage`); each has its
+    /// own section of the document.
     #[arg(long, value_enum, default_value_t = DetectorPreset::Colour)]
     detector: DetectorPreset,
     /// Rewrite the generated section of this markdown file.
@@ -49,6 +52,8 @@ const BEGIN: &str = "<!-- bench-vision:begin -->";
 const END: &str = "<!-- bench-vision:end -->";
 const NET_BEGIN: &str = "<!-- bench-vision-net:begin -->";
 const NET_END: &str = "<!-- bench-vision-net:end -->";
+const TWO_STAGE_BEGIN: &str = "<!-- bench-vision-two-stage:begin -->";
+const TWO_STAGE_END: &str = "<!-- bench-vision-two-stage:end -->";
 
 /// Every stage's durations, milliseconds, in pipeline order.
 #[derive(Debug, Default)]
@@ -138,7 +143,10 @@ fn main() -> Result<()> {
             Some(a) => a,
             None => {
                 let classifier = classifier(&config.detector, args.model.classifier.as_deref())?;
-                let a = Agent::new(id, Pitch::default(), config, [left, right], classifier)?;
+                let mut a = Agent::new(id, Pitch::default(), config, [left, right], classifier)?;
+                if let Some(net) = load_candidate_net(args.model.classifier.as_deref())? {
+                    a = a.with_candidate_net(net)?;
+                }
                 agents.entry(id.clone()).or_insert(a)
             }
         };
@@ -183,11 +191,24 @@ fn main() -> Result<()> {
     table += &format!(
         "The camera renderer (640×360, the ball and the other robots in view, sensor noise) renders {render_fps:.0} camera frames per second on one core (target ≥ 100).\n"
     );
+    if args.detector == DetectorPreset::TwoStage {
+        let net = match load_candidate_net(args.model.classifier.as_deref())? {
+            Some(n) => n,
+            None => robot_agent::builtin::candidate_net()?,
+        };
+        let checker = robot_agent::builtin::checker()?;
+        table += &format!(
+            "\nThe candidate network does {:.1} M multiply-adds per 640×360 frame; the grey checker {:.2} M per candidate patch.\n",
+            net.multiply_adds(640, 360) as f64 / 1e6,
+            checker.multiply_adds() as f64 / 1e6
+        );
+    }
     println!("{table}");
     if let Some(path) = &args.doc {
         let (flag, begin, end) = match args.detector {
             DetectorPreset::Net => (" --detector net", NET_BEGIN, NET_END),
-            _ => ("", BEGIN, END),
+            DetectorPreset::TwoStage => (" --detector two-stage", TWO_STAGE_BEGIN, TWO_STAGE_END),
+            DetectorPreset::Colour | DetectorPreset::Config => ("", BEGIN, END),
         };
         let cmd = format!(
             "cargo run --release -p bench --bin bench_agent -- --matches {} --seconds {}{flag} --doc {}",

@@ -97,9 +97,15 @@ struct Detection {
 
 pub fn run(args: DetectArgs) -> Result<()> {
     let mut config = crate::runtime::models::load_config(args.config.as_deref())?;
-    config.detector = args.detector.preset.apply(config.detector);
+    config.detector = args
+        .detector
+        .preset_for(args.model.classifier.as_deref())
+        .apply(config.detector);
     let detection = Detection {
-        detector: Detector::new(config.detector).context("the detector settings")?,
+        detector: crate::runtime::models::detector(
+            &config.detector,
+            args.model.classifier.as_deref(),
+        )?,
         classifier: crate::runtime::models::classifier(
             &config.detector,
             args.model.classifier.as_deref(),

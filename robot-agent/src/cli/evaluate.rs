@@ -5,6 +5,7 @@
 
 use crate::cli::labelled::{Item, LabelledFolder};
 use crate::detection::detect::{CandidateClassifier, Detector, NoClock};
+use crate::detection::photo::detect_photo;
 use crate::labels::eval::{LabelEval, LabelReport, TimingMs};
 use anyhow::Result;
 use std::collections::BTreeMap;
@@ -73,10 +74,18 @@ pub fn evaluate_items(
         }
         warnings += labels.warnings.len();
         let started = Instant::now();
-        let candidates = detector.detect(&image, model.as_ref(), classifier, &mut NoClock)?;
+        let candidates = detect_photo(
+            detector,
+            classifier,
+            opts.min_probability,
+            &image,
+            model.as_ref(),
+            &mut NoClock,
+        )?;
         let took_ms = started.elapsed().as_secs_f64() * 1e3;
         ms.push(took_ms);
-        let scored: Vec<_> = candidates
+        // Every candidate proposed, with the checker's probability when it gave one.
+        let candidates: Vec<_> = candidates
             .iter()
             .map(|c| (c.circle, c.probability))
             .collect();
@@ -85,20 +94,24 @@ pub fn evaluate_items(
         } else {
             format!("{}/{name}", item.folder)
         };
-        eval.add(&image_name, &labels.balls, &scored, took_ms);
+        eval.add_stages(&image_name, &labels.balls, &candidates, took_ms);
         let (f, f_ms) = per_folder
             .entry(item.folder.clone())
             .or_insert_with(|| (LabelEval::new(opts.min_probability), Vec::new()));
-        f.add(&image_name, &labels.balls, &scored, took_ms);
+        f.add_stages(&image_name, &labels.balls, &candidates, took_ms);
         f_ms.push(took_ms);
         if opts.verbose
             && let Some(row) = eval.last()
         {
             let line = format!(
-                "[{}/{n}] {image_name}: {} balls, {} candidates, published {}",
+                "[{}/{n}] {image_name}: {} balls ({} with a candidate), {} candidates \
+                 ({} on a ball, {} accepted), published {}",
                 k + 1,
                 row.balls.len(),
+                row.balls_proposed.iter().filter(|&&p| p).count(),
                 row.candidates,
+                row.candidates_on_ball,
+                row.candidates_accepted,
                 match (row.published, row.published_on_ball) {
                     (None, _) => "nothing".to_string(),
                     (Some(p), on) => format!(

@@ -6,7 +6,6 @@
 
 use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
 use crate::cli::labelled::{LabelledArgs, LabelledFolder};
-use crate::detection::detect::Detector;
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 
@@ -44,9 +43,13 @@ fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
 
 pub fn run(args: EvaluateArgs) -> Result<()> {
     let mut config = crate::runtime::models::load_config(args.config.as_deref())?;
-    config.detector = args.detector.preset.apply(config.detector);
+    config.detector = args
+        .detector
+        .preset_for(args.model.classifier.as_deref())
+        .apply(config.detector);
     let folder = LabelledFolder::open(&args.folder)?;
-    let detector = Detector::new(config.detector).context("the detector's settings")?;
+    let detector =
+        crate::runtime::models::detector(&config.detector, args.model.classifier.as_deref())?;
     let classifier =
         crate::runtime::models::classifier(&config.detector, args.model.classifier.as_deref())?;
     let items: Vec<_> = folder.items.iter().collect();
@@ -66,14 +69,24 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
     if out.folders.len() > 1 {
         println!();
         println!(
-            "{:<28} {:>6} {:>8} {:>9} {:>10} {:>8} {:>8}",
-            "folder", "photos", "recall", "precision", "ball recall", "FP/photo", "ms"
+            "{:<28} {:>6} {:>8} {:>9} {:>11} {:>8} {:>8} {:>11} {:>11} {:>10} {:>10}",
+            "folder",
+            "photos",
+            "recall",
+            "precision",
+            "ball recall",
+            "FP/photo",
+            "ms",
+            "cand recall",
+            "cand/photo",
+            "checker P",
+            "checker R"
         );
         for (name, r) in &out.folders {
             let pct =
                 |v: Option<f64>| v.map_or("–".to_string(), |v| format!("{:.1} %", 100.0 * v));
             println!(
-                "{:<28} {:>6} {:>8} {:>9} {:>10} {:>8} {:>8}",
+                "{:<28} {:>6} {:>8} {:>9} {:>11} {:>8} {:>8} {:>11} {:>11} {:>10} {:>10}",
                 if name.is_empty() { "." } else { name },
                 r.images,
                 pct(r.recall_published),
@@ -82,7 +95,12 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
                 r.false_positives_per_image
                     .map_or("–".to_string(), |v| format!("{v:.3}")),
                 r.timing_ms
-                    .map_or("–".to_string(), |t| format!("{:.2}", t.median))
+                    .map_or("–".to_string(), |t| format!("{:.2}", t.median)),
+                pct(r.candidate_recall),
+                r.candidates_per_frame
+                    .map_or("–".to_string(), |c| format!("{:.2}", c.mean)),
+                pct(r.checker.precision),
+                pct(r.checker.recall)
             );
         }
     }

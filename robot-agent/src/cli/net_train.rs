@@ -44,7 +44,7 @@ pub fn collect_samples(
         match loaded {
             Ok((labels, image)) => {
                 let mut rng = Rng::stream(seed, "ballnet-samples", k as u64);
-                let (s, c) = photo_samples(&image, &labels.balls, cfg, &mut rng);
+                let (s, c) = photo_samples(&image, &labels.balls, &[], cfg, &mut rng);
                 samples.extend(s);
                 counts += c;
             }

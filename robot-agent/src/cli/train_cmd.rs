@@ -1,12 +1,14 @@
-//! `robot-agent train`: the ball network (default) from photos with labelled ball boxes,
-//! or the HOG + SVM classifier from the same photos or from folders of ball and non-ball
-//! patches.
+//! `robot-agent train`: the colour-patch ball network (default) or the two-stage detector
+//! from photos with labelled ball boxes, or the HOG + SVM classifier from the same photos
+//! or from folders of ball and non-ball patches.
 
+use crate::cli::detector_train::{DetectorTraining, train_detector};
 use crate::cli::labelled::{Item, LabelledArgs, LabelledFolder};
 use crate::cli::net_train::{held_out, train_on_photos};
 use crate::cli::train::{fit_and_write, folder_patches, labelled_folder_patches};
 use crate::detection::ballnet_data::SampleConfig;
 use crate::detection::ballnet_train::NetTrainConfig;
+use crate::detection::detector_train::StageTrainConfig;
 use anyhow::{Context, Result, bail};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -15,7 +17,11 @@ use std::time::Instant;
 /// Which classifier to train.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ModelKind {
-    /// The ball network: any ball colour, refines the ball's circle (`.safetensors`).
+    /// The two-stage detector: the candidate network and the grey checker, one
+    /// `.safetensors` file for `run`, `detect` and `evaluate --model` (with `--detector
+    /// two-stage`).
+    Detector,
+    /// The colour-patch ball network (the default): any ball colour, refines the ball's circle (`.safetensors`).
     Cnn,
     /// The HOG + SVM filter of the colour detector (`.json`).
     HogSvm,
@@ -77,7 +83,17 @@ pub struct TrainArgs {
     /// and folds.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Where to write the model (`.safetensors` for the network, JSON for HOG + SVM).
+    /// Epochs of the candidate network (detector).
+    #[arg(long, default_value_t = StageTrainConfig::candidates().epochs)]
+    pub candidate_epochs: usize,
+    /// Epochs of the grey checker (detector).
+    #[arg(long, default_value_t = StageTrainConfig::checker().epochs)]
+    pub checker_epochs: usize,
+    /// Fine-tune a detector file's two stages (`shipped`: the shipped detector) instead of
+    /// starting from random weights.
+    #[arg(long, value_name = "MODEL")]
+    pub from: Option<PathBuf>,
+    /// Where to write the model (`.safetensors` for the networks, JSON for HOG + SVM).
     #[arg(long)]
     pub out: PathBuf,
     /// The held-out precision-recall curve as a PNG (ball network).
@@ -104,41 +120,201 @@ pub fn run(args: TrainArgs) -> Result<()> {
     match kind {
         ModelKind::HogSvm => run_svm(args),
         ModelKind::Cnn => run_net(args),
+        ModelKind::Detector => run_detector(args),
     }
 }
 
-fn run_net(args: TrainArgs) -> Result<()> {
-    if args.positives.is_some() {
-        bail!("the ball network trains on labelled photos: give --images DIR (or --model hog-svm)");
-    }
-    let folder = LabelledFolder::open(&args.labelled)?;
-    let (val_items, train_items): (Vec<&Item>, Vec<&Item>) = folder
-        .items
-        .iter()
-        .partition(|i| held_out(i, &args.hold_out));
-    for f in &args.hold_out {
-        if !val_items
-            .iter()
-            .any(|i| held_out(i, std::slice::from_ref(f)))
-        {
-            bail!("--hold-out {f}: no photos in that folder of the --images folder");
+/// The folder of labelled photos, and the separate held-out folder when `--val` names one.
+struct Split {
+    folder: LabelledFolder,
+    val_folder: Option<LabelledFolder>,
+}
+
+impl Split {
+    fn open(args: &TrainArgs) -> Result<Self> {
+        if args.positives.is_some() {
+            bail!("the networks train on labelled photos: give --images DIR (or --model hog-svm)");
         }
+        let folder = LabelledFolder::open(&args.labelled)?;
+        let val_folder = match &args.val {
+            Some(dir) => Some(LabelledFolder::open(&LabelledArgs {
+                images: Some(dir.clone()),
+                labels: None,
+                ..args.labelled.clone()
+            })?),
+            None => None,
+        };
+        Ok(Split { folder, val_folder })
     }
-    if train_items.is_empty() {
-        bail!("every photo is held out: nothing is left to train on");
+
+    /// Training items, and the held-out folder with its items (the `--hold-out` folders'
+    /// photos, or the `--val` folder's).
+    fn items<'a>(
+        &'a self,
+        hold_out: &[String],
+    ) -> Result<(Vec<&'a Item>, &'a LabelledFolder, Vec<&'a Item>)> {
+        let (val_items, train_items): (Vec<&Item>, Vec<&Item>) = self
+            .folder
+            .items
+            .iter()
+            .partition(|i| held_out(i, hold_out));
+        for f in hold_out {
+            if !val_items
+                .iter()
+                .any(|i| held_out(i, std::slice::from_ref(f)))
+            {
+                bail!("--hold-out {f}: no photos in that folder of the --images folder");
+            }
+        }
+        if train_items.is_empty() {
+            bail!("every photo is held out: nothing is left to train on");
+        }
+        Ok(match &self.val_folder {
+            Some(v) => (train_items, v, v.items.iter().collect()),
+            None => (train_items, &self.folder, val_items),
+        })
     }
-    let val_folder = match &args.val {
-        Some(dir) => Some(LabelledFolder::open(&LabelledArgs {
-            images: Some(dir.clone()),
-            labels: None,
-            ..args.labelled.clone()
-        })?),
+}
+
+/// The file's recipe: the data, the command, the seed.
+fn recipe(args: &TrainArgs, train_photos: usize) -> BTreeMap<String, String> {
+    let images = args
+        .labelled
+        .images
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    let mut metadata = BTreeMap::new();
+    metadata.insert(
+        "data".to_string(),
+        format!(
+            "{images}: {train_photos} photos for training{}",
+            if args.hold_out.is_empty() {
+                String::new()
+            } else {
+                format!(", held out: {}", args.hold_out.join(", "))
+            }
+        ),
+    );
+    metadata.insert(
+        "command".to_string(),
+        std::iter::once("robot-agent".to_string())
+            .chain(std::env::args().skip(1))
+            .collect::<Vec<_>>()
+            .join(" "),
+    );
+    metadata.insert("seed".to_string(), args.seed.to_string());
+    metadata
+}
+
+/// The held-out score as a model file records it.
+fn held_out_line(report: &crate::labels::eval::LabelReport) -> String {
+    format!(
+        "{} photos: recall {:.3}, precision {:.3}, ball recall {:.3} at p >= 0.5",
+        report.images,
+        report.recall_published.unwrap_or(0.0),
+        report.precision.unwrap_or(0.0),
+        report.ball_recall.unwrap_or(0.0)
+    )
+}
+
+/// The held-out precision-recall plot and JSON report, when asked for.
+fn write_held_out(
+    args: &TrainArgs,
+    report: &crate::labels::eval::LabelReport,
+    name: &str,
+) -> Result<()> {
+    if let Some(path) = &args.plot {
+        super::pr_chart::write_png(
+            path,
+            "Held-out precision and recall",
+            super::pr_chart::Curve {
+                name,
+                points: &report.pr_curve,
+                threshold: 0.5,
+            },
+        )?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.json {
+        write_file(path, serde_json::to_string_pretty(report)?.as_bytes())?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn run_detector(args: TrainArgs) -> Result<()> {
+    let split = Split::open(&args)?;
+    let (train_items, val_folder, val_items) = split.items(&args.hold_out)?;
+    if val_items.is_empty() {
+        eprintln!(
+            "nothing held out (no --hold-out or --val): the last epochs are kept and no \
+             held-out score is recorded"
+        );
+    }
+    let start = match &args.from {
         None => None,
+        Some(p) => {
+            let bytes = if p.as_os_str() == "shipped" {
+                crate::builtin::DETECTOR.to_vec()
+            } else {
+                std::fs::read(p).with_context(|| format!("reading {}", p.display()))?
+            };
+            Some(
+                crate::detection::detector_train::stages_of(&bytes)
+                    .with_context(|| format!("{} is not a detector file", p.display()))?,
+            )
+        }
     };
-    let (val_folder, val_items): (&LabelledFolder, Vec<&Item>) = match &val_folder {
-        Some(v) => (v, v.items.iter().collect()),
-        None => (&folder, val_items),
+    let stage = |base: StageTrainConfig, epochs: usize| StageTrainConfig {
+        epochs,
+        seed: args.seed,
+        ..base
     };
+    let started = Instant::now();
+    let out = train_detector(
+        &split.folder,
+        &train_items,
+        (val_folder, &val_items),
+        DetectorTraining {
+            candidates: stage(StageTrainConfig::candidates(), args.candidate_epochs),
+            checker: stage(StageTrainConfig::checker(), args.checker_epochs),
+            start: start.as_ref(),
+            random_negatives: args.random_negatives,
+            copies: args.copies,
+            metadata: recipe(&args, train_items.len()),
+        },
+    )?;
+    let mut file = out.file.clone();
+    println!(
+        "the candidate stage reached {} of the {} training balls",
+        out.training_balls_reached.0, out.training_balls_reached.1
+    );
+    if let Some(report) = &out.held_out {
+        println!("held-out photos ({}):", val_items.len());
+        println!("{report}");
+        let mut meta = out.net.metadata().clone();
+        meta.insert("held_out".to_string(), held_out_line(report));
+        file = crate::detection::detector_train::with_metadata(&file, &meta)?;
+        write_held_out(&args, report, "two-stage detector")?;
+    }
+    write_file(&args.out, &file)?;
+    println!(
+        "wrote {} ({} bytes; candidate network epoch {} of {}, checker epoch {} of {}) in {:.0} s",
+        args.out.display(),
+        file.len(),
+        out.candidate_epochs.0,
+        out.candidate_epochs.1,
+        out.checker_epochs.0,
+        out.checker_epochs.1,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn run_net(args: TrainArgs) -> Result<()> {
+    let split = Split::open(&args)?;
+    let (train_items, val_folder, val_items) = split.items(&args.hold_out)?;
     let cfg = NetTrainConfig {
         epochs: args.epochs,
         batch: args.batch,
@@ -157,41 +333,14 @@ fn run_net(args: TrainArgs) -> Result<()> {
         anyhow::ensure!(n > 0, "--proposals must be at least 1");
         samples.appearance.max_candidates = n;
     }
-    let images = args
-        .labelled
-        .images
-        .as_ref()
-        .map(|p| p.display().to_string())
-        .unwrap_or_default();
-    let mut metadata = BTreeMap::new();
-    metadata.insert(
-        "data".to_string(),
-        format!(
-            "{images}: {} photos for training{}",
-            train_items.len(),
-            if args.hold_out.is_empty() {
-                String::new()
-            } else {
-                format!(", held out: {}", args.hold_out.join(", "))
-            }
-        ),
-    );
-    metadata.insert(
-        "command".to_string(),
-        std::iter::once("robot-agent".to_string())
-            .chain(std::env::args().skip(1))
-            .collect::<Vec<_>>()
-            .join(" "),
-    );
-    metadata.insert("seed".to_string(), args.seed.to_string());
     let started = Instant::now();
     let out = train_on_photos(
-        &folder,
+        &split.folder,
         &train_items,
         (val_folder, &val_items),
         &cfg,
         &samples,
-        metadata,
+        recipe(&args, train_items.len()),
     )?;
     let mut file = out.trained.file.clone();
     if let Some(report) = &out.held_out {
@@ -199,33 +348,9 @@ fn run_net(args: TrainArgs) -> Result<()> {
         println!("{report}");
         // Record the held-out score in the file itself.
         let mut meta = out.trained.net.metadata().clone();
-        meta.insert(
-            "held_out".to_string(),
-            format!(
-                "{} photos: recall {:.3}, precision {:.3}, ball recall {:.3} at p >= 0.5",
-                report.images,
-                report.recall_published.unwrap_or(0.0),
-                report.precision.unwrap_or(0.0),
-                report.ball_recall.unwrap_or(0.0)
-            ),
-        );
+        meta.insert("held_out".to_string(), held_out_line(report));
         file = crate::detection::ballnet_train::with_metadata(&file, &meta)?;
-        if let Some(path) = &args.plot {
-            super::pr_chart::write_png(
-                path,
-                "Held-out precision and recall",
-                super::pr_chart::Curve {
-                    name: "ball network",
-                    points: &report.pr_curve,
-                    threshold: 0.5,
-                },
-            )?;
-            println!("wrote {}", path.display());
-        }
-        if let Some(path) = &args.json {
-            write_file(path, serde_json::to_string_pretty(report)?.as_bytes())?;
-            println!("wrote {}", path.display());
-        }
+        write_held_out(&args, report, "ball network")?;
     }
     write_file(&args.out, &file)?;
     println!(

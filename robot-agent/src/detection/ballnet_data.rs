@@ -17,7 +17,6 @@
 //! axis, the channels swapped, or all grey), and changes its brightness, contrast and
 //! noise.
 
-use crate::detection::ballnet::patch_for;
 use crate::detection::contrast::{AppearanceConfig, propose};
 use crate::detection::hough::Circle;
 use crate::detection::patch::{PATCH_SIDE_PX, RgbPatch};
@@ -48,6 +47,13 @@ pub struct SampleConfig {
     pub copy_offset: f64,
     /// The largest log scale of a copy's radius.
     pub copy_log_scale: f64,
+    /// The patch window's side over a circle's radius (the network's own).
+    pub window_over_radius: f64,
+    /// A proposal is on a ball when its centre is within this share of the ball's radius
+    /// of the ball's centre ...
+    pub on_ball_offset: f64,
+    /// ... and its radius within this factor of the ball's.
+    pub on_ball_ratio: f64,
 }
 
 impl Default for SampleConfig {
@@ -58,6 +64,9 @@ impl Default for SampleConfig {
             random_per_photo: 4,
             copy_offset: 0.35,
             copy_log_scale: 0.45,
+            window_over_radius: crate::detection::ballnet::WINDOW_OVER_RADIUS,
+            on_ball_offset: 0.5,
+            on_ball_ratio: 2.0,
         }
     }
 }
@@ -94,19 +103,26 @@ pub fn ball_circle(ball: &BallBox, size_px: [f64; 2]) -> ([f64; 2], f64) {
     (ball.centre_px(), r.max(0.5))
 }
 
-/// The correction from a circle to the ball, when the circle is on it (centre within half
-/// the ball's radius, radius within a factor of two of the ball's).
-pub fn correction(circle: &Circle, ball: &BallBox, size_px: [f64; 2]) -> Option<[f32; 3]> {
+/// The correction from a circle to the ball, when the circle is on it: its centre within
+/// `offset` of the ball's radius (at least 2 px) of the ball's, its radius within a factor
+/// `ratio` of the ball's.
+pub fn correction(
+    circle: &Circle,
+    ball: &BallBox,
+    size_px: [f64; 2],
+    offset: f64,
+    ratio: f64,
+) -> Option<[f32; 3]> {
     let ([bx, by], rb) = ball_circle(ball, size_px);
     let [cx, cy] = circle.center_px;
     let r = circle.radius_px;
-    let near = (bx - cx).hypot(by - cy) <= 0.5 * rb.max(2.0);
-    let ratio = rb / r;
-    (near && (0.5..=2.0).contains(&ratio)).then(|| {
+    let near = (bx - cx).hypot(by - cy) <= offset * rb.max(2.0);
+    let scale = rb / r;
+    (near && (1.0 / ratio..=ratio).contains(&scale)).then(|| {
         [
             ((bx - cx) / r) as f32,
             ((by - cy) / r) as f32,
-            ratio.ln() as f32,
+            scale.ln() as f32,
         ]
     })
 }
@@ -119,13 +135,21 @@ pub fn clear_of(circle: &Circle, ball: &BallBox) -> bool {
     (circle.center_px[0] - bx).hypot(circle.center_px[1] - by) > rb + circle.radius_px
 }
 
-/// The samples of one labelled photo, and how many balls the proposals covered.
+/// The samples of one labelled photo, and how many balls the proposals covered: the
+/// appearance proposals and `extra` ones (another stage's candidates).
 pub fn photo_samples(
     image: &RgbImage,
     balls: &[BallBox],
+    extra: &[Circle],
     cfg: &SampleConfig,
     rng: &mut Rng,
 ) -> (Vec<Sample>, SampleCounts) {
+    let patch_cfg = crate::detection::patch::PatchConfig {
+        window_over_radius: cfg.window_over_radius,
+    };
+    let patch_for = |image: &RgbImage, c: &Circle| {
+        crate::detection::patch::extract_rgb(image, c.center_px, c.radius_px, &patch_cfg).ok()
+    };
     let mut out = Vec::new();
     let mut counts = SampleCounts {
         balls: balls.len(),
@@ -133,11 +157,12 @@ pub fn photo_samples(
     };
     let size = [f64::from(image.width()), f64::from(image.height())];
     let mut covered = vec![false; balls.len()];
-    for circle in propose(image, &cfg.appearance) {
-        let on = balls
-            .iter()
-            .enumerate()
-            .find_map(|(k, b)| correction(&circle, b, size).map(|t| (k, t)));
+    let mut proposals = propose(image, &cfg.appearance);
+    proposals.extend_from_slice(extra);
+    for circle in proposals {
+        let on = balls.iter().enumerate().find_map(|(k, b)| {
+            correction(&circle, b, size, cfg.on_ball_offset, cfg.on_ball_ratio).map(|t| (k, t))
+        });
         let sample = match on {
             Some((k, target)) => {
                 covered[k] = true;
@@ -176,9 +201,10 @@ pub fn photo_samples(
                 radius_px: r.max(1.0),
                 score: 1.0,
             };
-            if let (Some(target), Some(patch)) =
-                (correction(&circle, b, size), patch_for(image, &circle))
-            {
+            if let (Some(target), Some(patch)) = (
+                correction(&circle, b, size, cfg.on_ball_offset, cfg.on_ball_ratio),
+                patch_for(image, &circle),
+            ) {
                 out.push(Sample {
                     patch,
                     ball: true,
@@ -256,7 +282,7 @@ fn symmetry(s: &Sample, code: usize) -> Sample {
 
 /// A colour change: a 3×3 matrix applied to every pixel's RGB about grey. Hue turns reach
 /// `max_hue_turn_rad` either way; at π or more the channels may also be swapped.
-fn colour_matrix(rng: &mut Rng, max_hue_turn_rad: f64) -> [[f64; 3]; 3] {
+pub fn colour_matrix(rng: &mut Rng, max_hue_turn_rad: f64) -> [[f64; 3]; 3] {
     let any_colour = max_hue_turn_rad >= std::f64::consts::PI;
     let roll = rng.uniform();
     if roll < 0.15 {
@@ -341,14 +367,14 @@ mod tests {
             score: 1.0,
         };
         let size = [200.0, 200.0];
-        let t = correction(&c, &b, size).unwrap();
+        let t = correction(&c, &b, size, 0.5, 2.0).unwrap();
         assert!((t[0] - 0.25).abs() < 1e-6 && (t[1] + 0.375).abs() < 1e-6);
         assert!((t[2] - (10.0f32 / 8.0).ln()).abs() < 1e-6);
         let far = Circle {
             center_px: [60.0, 40.0],
             ..c
         };
-        assert_eq!(correction(&far, &b, size), None);
+        assert_eq!(correction(&far, &b, size, 0.5, 2.0), None);
         assert!(!clear_of(&far, &b));
         let clear = Circle {
             center_px: [80.0, 40.0],
@@ -387,7 +413,8 @@ mod tests {
         }
         let balls = [ball_box(60.0, 50.0, 9.0)];
         let mut rng = Rng::new(3);
-        let (samples, counts) = photo_samples(&image, &balls, &SampleConfig::default(), &mut rng);
+        let (samples, counts) =
+            photo_samples(&image, &balls, &[], &SampleConfig::default(), &mut rng);
         assert_eq!(counts.balls, 1);
         assert_eq!(counts.proposed, 1, "the contrast stage proposes the disc");
         assert!(counts.positives > SampleConfig::default().copies_per_ball);

@@ -16,6 +16,12 @@
 //!    SVM filter and the dominant-colour check in the agent) on the same local view, which
 //!    gives the probability that it is the ball.
 //!
+//! With `proposer = "net"` the colour stages give way to stage `candidates`: the candidate
+//! network's heatmap peaks ([`crate::detection::heatnet`]), then the strongest appearance
+//! proposals that do not repeat them (stage `appearance`), and in the agent the tracked
+//! ball's predicted place ([`Detector::detect_with_hint`]); a batching classifier (the grey
+//! checker) judges each view's proposals at once.
+//!
 //! World validation and the choice of at most one ball per frame happen after projection
 //! (see [`crate::pipeline`]).
 
@@ -25,6 +31,7 @@ use crate::detection::blob_circle::{
 };
 use crate::detection::components::{BoundingBox, Component, joined_components};
 pub use crate::detection::detect_config::{ClassifierKind, DetectorConfig, Proposer};
+use crate::detection::heatnet::HeatNet;
 use crate::detection::hough::{Circle, HoughConfig, HoughError};
 use crate::detection::hsv::{HsvError, HsvThresholds, MaskLut, disc_hsv};
 use crate::detection::kmeans::ColourError;
@@ -52,6 +59,10 @@ pub enum DetectError {
     Appearance(#[from] crate::detection::contrast::AppearanceError),
     #[error("adapt_rate {0} is outside [0, 1]")]
     BadRate(f64),
+    #[error("the candidate network: {0}")]
+    CandidateNet(#[from] crate::detection::nn::WeightsError),
+    #[error("candidates: {0}")]
+    Candidates(String),
 }
 
 /// Marks the end of each stage; the agent's shell measures the time between marks.
@@ -75,6 +86,12 @@ pub trait CandidateClassifier {
     /// that regresses the ball's centre and radius refines the proposal's).
     fn judge(&self, image: &RgbImage, circle: &Circle) -> Option<(f64, Circle)> {
         self.probability(image, circle).map(|p| (p, *circle))
+    }
+
+    /// [`CandidateClassifier::judge`] of every circle of one image, in order (a classifier
+    /// that runs a batch at once overrides it).
+    fn judge_all(&self, image: &RgbImage, circles: &[Circle]) -> Vec<Option<(f64, Circle)>> {
+        circles.iter().map(|c| self.judge(image, c)).collect()
     }
 }
 
@@ -117,20 +134,33 @@ pub fn judge(
     image: &RgbImage,
     classifier: &dyn CandidateClassifier,
 ) -> Vec<Judged> {
+    // Proposals are judged a view at a time, so a batching classifier sees the frame's
+    // proposals without a view in one batch.
+    let mut verdicts: Vec<Option<(f64, Circle)>> = vec![None; proposals.items.len()];
+    let mut groups: std::collections::BTreeMap<Option<usize>, Vec<usize>> = Default::default();
+    for (i, p) in proposals.items.iter().enumerate() {
+        groups.entry(p.view).or_default().push(i);
+    }
+    for (view, members) in groups {
+        let circles: Vec<Circle> = members.iter().map(|&i| proposals.items[i].local).collect();
+        let img = view.and_then(|v| proposals.views.get(v)).unwrap_or(image);
+        for (&i, v) in members.iter().zip(classifier.judge_all(img, &circles)) {
+            verdicts[i] = v;
+        }
+    }
     let mut judged: Vec<Judged> = proposals
         .items
         .iter()
+        .zip(verdicts)
         .enumerate()
-        .map(|(index, p)| Judged {
+        .map(|(index, (p, verdict))| Judged {
             index,
-            candidate: classifier.judge(proposals.image(p, image), &p.local).map(
-                |(probability, refined)| Candidate {
-                    circle: if p.view.is_none() { refined } else { p.frame },
-                    probability,
-                    angular_radius_rad: p.angular_radius_rad,
-                    sparse_blob: p.sparse_blob,
-                },
-            ),
+            candidate: verdict.map(|(probability, refined)| Candidate {
+                circle: if p.view.is_none() { refined } else { p.frame },
+                probability,
+                angular_radius_rad: p.angular_radius_rad,
+                sparse_blob: p.sparse_blob,
+            }),
             repeat: false,
         })
         .collect();
@@ -206,10 +236,24 @@ pub struct Detector {
     seeded: SeededLut,
     /// The patches' colour, when patterned balls are looked for.
     white_lut: Option<MaskLut>,
+    /// The candidate network, when the proposer uses it.
+    heat: Option<std::sync::Arc<HeatNet>>,
 }
 
 impl Detector {
+    /// The detector of `config`, with the shipped candidate network when the proposer
+    /// runs one.
     pub fn new(config: DetectorConfig) -> Result<Self, DetectError> {
+        Self::build(config, None)
+    }
+
+    /// The detector of `config` with this candidate network (a trained model's) in place of
+    /// the shipped one.
+    pub fn with_net(config: DetectorConfig, net: HeatNet) -> Result<Self, DetectError> {
+        Self::build(config, Some(net))
+    }
+
+    fn build(config: DetectorConfig, net: Option<HeatNet>) -> Result<Self, DetectError> {
         config.thresholds.check()?;
         config.limits.check()?;
         config.hough.check()?;
@@ -219,7 +263,16 @@ impl Detector {
         if !(0.0..=1.0).contains(&config.adapt_rate) {
             return Err(DetectError::BadRate(config.adapt_rate));
         }
+        config.candidates.check().map_err(DetectError::Candidates)?;
+        let heat = match net {
+            Some(n) => Some(std::sync::Arc::new(n)),
+            None if config.proposer.net() => {
+                Some(std::sync::Arc::new(crate::builtin::candidate_net()?))
+            }
+            None => None,
+        };
         Ok(Detector {
+            heat,
             config,
             thresholds: config.thresholds,
             lut: MaskLut::new(&config.thresholds)?,
@@ -234,6 +287,11 @@ impl Detector {
 
     pub fn config(&self) -> &DetectorConfig {
         &self.config
+    }
+
+    /// The candidate network in use, if any.
+    pub fn candidate_net(&self) -> Option<&HeatNet> {
+        self.heat.as_deref().filter(|_| self.config.proposer.net())
     }
 
     /// The colour window in use, after lighting adaptation.
@@ -301,21 +359,33 @@ impl Detector {
         } else {
             Proposals::default()
         };
-        if self.config.proposer.appearance() {
-            let found = crate::detection::contrast::propose(image, &self.config.appearance);
+        let frame_proposal = |circle: Circle| Proposal {
+            frame: circle,
+            local: circle,
+            view: None,
+            angular_radius_rad: None,
+            sparse_blob: false,
+        };
+        if let Some(net) = self.candidate_net() {
+            for circle in net.candidates(image, &self.config.candidates) {
+                proposals.items.push(frame_proposal(circle));
+            }
+            clock.mark("candidates");
+        }
+        let net_only = self.config.proposer.net() && self.config.net_appearance_candidates == 0;
+        if self.config.proposer.appearance() && !net_only {
+            let mut found = crate::detection::contrast::propose(image, &self.config.appearance);
+            if self.config.proposer.net() {
+                found.retain(|c| !proposals.items.iter().any(|p| same_place(&p.frame, c)));
+                found.truncate(self.config.net_appearance_candidates);
+            }
             let colour = proposals.items.len();
             for circle in found {
                 let repeats = proposals.items[..colour]
                     .iter()
                     .any(|p| same_place(&p.frame, &circle));
                 if !repeats {
-                    proposals.items.push(Proposal {
-                        frame: circle,
-                        local: circle,
-                        view: None,
-                        angular_radius_rad: None,
-                        sparse_blob: false,
-                    });
+                    proposals.items.push(frame_proposal(circle));
                 }
             }
             clock.mark("appearance");
@@ -570,7 +640,31 @@ impl Detector {
         classifier: &dyn CandidateClassifier,
         clock: &mut dyn StageClock,
     ) -> Result<Vec<Candidate>, DetectError> {
-        let proposals = self.propose(image, model, clock)?;
+        self.detect_with_hint(image, model, None, classifier, clock)
+    }
+
+    /// [`Detector::detect`] with one more candidate, `hint`, where the tracked ball is
+    /// predicted to be (in frame pixels), unless a proposal is already there.
+    pub fn detect_with_hint(
+        &self,
+        image: &RgbImage,
+        model: Option<&CameraModel>,
+        hint: Option<Circle>,
+        classifier: &dyn CandidateClassifier,
+        clock: &mut dyn StageClock,
+    ) -> Result<Vec<Candidate>, DetectError> {
+        let mut proposals = self.propose(image, model, clock)?;
+        if let Some(h) = hint
+            && !proposals.items.iter().any(|p| same_place(&p.frame, &h))
+        {
+            proposals.items.push(Proposal {
+                frame: h,
+                local: h,
+                view: None,
+                angular_radius_rad: None,
+                sparse_blob: false,
+            });
+        }
         let candidates = judge(&proposals, image, classifier)
             .into_iter()
             .filter(|j| !j.repeat)

@@ -3,6 +3,7 @@
 //! settings file; a table with some keys keeps the defaults of the others.
 
 use crate::detection::contrast::AppearanceConfig;
+use crate::detection::heatnet::PeakConfig;
 use crate::detection::hough::HoughConfig;
 use crate::detection::hsv::HsvThresholds;
 use crate::detection::kmeans::ColourCheckConfig;
@@ -20,6 +21,9 @@ pub enum Proposer {
     Appearance,
     /// Both, the colour path's first.
     Both,
+    /// The candidate network's heatmap peaks ([`crate::detection::heatnet`]), then the
+    /// strongest appearance proposals that do not repeat them.
+    Net,
 }
 
 impl Proposer {
@@ -28,7 +32,12 @@ impl Proposer {
     }
 
     pub fn appearance(self) -> bool {
-        matches!(self, Proposer::Appearance | Proposer::Both)
+        matches!(self, Proposer::Appearance | Proposer::Both | Proposer::Net)
+    }
+
+    /// Whether the candidate network runs.
+    pub fn net(self) -> bool {
+        matches!(self, Proposer::Net)
     }
 }
 
@@ -41,6 +50,9 @@ pub enum ClassifierKind {
     Net,
     /// The shipped HOG + SVM filter with the colour check (the colour proposer's partner).
     HogSvm,
+    /// The shipped grey checker (any ball colour, by shape; refines the circle; the
+    /// candidate network's partner).
+    Checker,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -53,6 +65,11 @@ pub struct DetectorConfig {
     pub classifier: ClassifierKind,
     /// The appearance proposals' settings.
     pub appearance: AppearanceConfig,
+    /// How the candidate network's peaks become candidates.
+    pub candidates: PeakConfig,
+    /// With the candidate network, at most this many appearance proposals join its peaks
+    /// (the strongest).
+    pub net_appearance_candidates: usize,
     /// The ball's colour window.
     #[serde(deserialize_with = "thresholds_over_default")]
     pub thresholds: HsvThresholds,
@@ -98,6 +115,8 @@ impl Default for DetectorConfig {
             proposer: Proposer::Colour,
             classifier: ClassifierKind::HogSvm,
             appearance: AppearanceConfig::default(),
+            candidates: PeakConfig::default(),
+            net_appearance_candidates: 4,
             thresholds: HsvThresholds {
                 hue_lo_deg: 8.0,
                 hue_hi_deg: 42.0,

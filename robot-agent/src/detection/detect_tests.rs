@@ -370,3 +370,24 @@ fn an_unknown_settings_key_is_an_error() {
     // A key of the wrong type is an error too.
     assert!(settings("[detector.thresholds]\nsat_min = \"low\"").is_err());
 }
+
+#[test]
+fn a_hint_is_judged_as_a_candidate_where_nothing_else_is() {
+    let image = background();
+    let detector = Detector::new(DetectorConfig::default()).unwrap();
+    let none = detector
+        .detect(&image, None, &HoughOnly, &mut NoClock)
+        .unwrap();
+    assert!(none.is_empty(), "{none:?}");
+    let hint = Circle {
+        center_px: [100.0, 80.0],
+        radius_px: 6.0,
+        score: 0.25,
+    };
+    let found = detector
+        .detect_with_hint(&image, None, Some(hint), &HoughOnly, &mut NoClock)
+        .unwrap();
+    assert_eq!(found.len(), 1);
+    assert_eq!(found[0].circle.center_px, hint.center_px);
+    assert!((found[0].probability - 0.25).abs() < 1e-9);
+}

@@ -86,6 +86,7 @@ impl RgbPatch {
     }
 
     /// A colour patch of `3 × 32 × 32` row-major RGB8 bytes; fails on a wrong length.
+    #[cfg_attr(not(feature = "train"), allow(dead_code))]
     pub fn from_bytes(data: Vec<u8>) -> Result<Self, PatchError> {
         if data.len() != 3 * PATCH_PIXELS {
             return Err(PatchError::Length(data.len() / 3));
@@ -94,6 +95,7 @@ impl RgbPatch {
     }
 
     /// A colour patch whose pixel at `(x, y)` is `f(x, y)`.
+    #[cfg_attr(not(feature = "train"), allow(dead_code))]
     pub fn from_fn_rgb(mut f: impl FnMut(usize, usize) -> [u8; 3]) -> Self {
         let mut data = Vec::with_capacity(3 * PATCH_PIXELS);
         for y in 0..PATCH_SIDE_PX {
@@ -105,6 +107,7 @@ impl RgbPatch {
     }
 
     /// The greyscale patch of this colour patch.
+    #[cfg_attr(not(feature = "train"), allow(dead_code))]
     pub fn to_grey(&self) -> Patch {
         let grey = self
             .data

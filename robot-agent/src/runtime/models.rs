@@ -5,7 +5,8 @@ use crate::agent::PipelineConfig;
 use crate::calibration::calibrate::Calibration;
 use crate::calibration::camera::CameraModel;
 use crate::detection::classifier::BallClassifier;
-use crate::detection::detect::{CandidateClassifier, DetectorConfig};
+use crate::detection::detect::{CandidateClassifier, Detector, DetectorConfig};
+use crate::detection::heatnet::HeatNet;
 use crate::detection::svm::Model;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
@@ -15,19 +16,24 @@ use crate::builtin::SIM_CALIBRATION_TOML;
 /// The flag choosing the ball classifier.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct ClassifierArgs {
-    /// A ball classifier made by `robot-agent train` instead of the shipped one: a ball
-    /// network (`.safetensors`) or a HOG + SVM filter (`.json`); `hog-svm` names the
+    /// A model made by `robot-agent train` instead of the shipped one: a two-stage
+    /// detector (`.safetensors`: its candidate network and grey checker), a colour-patch
+    /// ball network (`.safetensors`) or a HOG + SVM filter (`.json`); `hog-svm` names the
     /// shipped HOG + SVM filter.
-    #[arg(long = "classifier", value_name = "MODEL")]
+    #[arg(long = "classifier", visible_alias = "model", value_name = "MODEL")]
     pub classifier: Option<PathBuf>,
 }
 
 /// The detector a photo command runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum DetectorPreset {
-    /// Appearance proposals judged by the shipped ball network: any camera, any ball
-    /// colour, no colour calibration.
+    /// Appearance proposals judged by the shipped colour-patch ball network: any camera,
+    /// any ball colour, no colour calibration.
     Net,
+    /// The two-stage detector: the candidate network's heatmap peaks and the strongest
+    /// appearance proposals, judged by the grey checker (see the agent's guide for how far
+    /// its shipped weights are from the colour-patch network).
+    TwoStage,
     /// Colour proposals judged by the HOG + SVM filter: the MiRo's calibrated colour path.
     Colour,
     /// As the `--config` file (or the pipeline's defaults) says.
@@ -42,6 +48,21 @@ pub struct DetectorArgs {
     pub preset: DetectorPreset,
 }
 
+impl DetectorArgs {
+    /// The preset to run with `model`: a two-stage detector's file given with the default
+    /// `net` preset runs as `two-stage` (its candidate network needs it).
+    pub fn preset_for(&self, model: Option<&Path>) -> DetectorPreset {
+        let detector_file = model
+            .filter(|p| p.extension().is_some_and(|e| e == "safetensors"))
+            .and_then(|p| std::fs::read(p).ok())
+            .is_some_and(|bytes| is_detector_file(&bytes));
+        match self.preset {
+            DetectorPreset::Net if detector_file => DetectorPreset::TwoStage,
+            p => p,
+        }
+    }
+}
+
 impl DetectorPreset {
     /// The settings with this preset's proposer and classifier.
     pub fn apply(self, config: DetectorConfig) -> DetectorConfig {
@@ -50,6 +71,11 @@ impl DetectorPreset {
             DetectorPreset::Net => DetectorConfig {
                 proposer: Proposer::Appearance,
                 classifier: ClassifierKind::Net,
+                ..config
+            },
+            DetectorPreset::TwoStage => DetectorConfig {
+                proposer: Proposer::Net,
+                classifier: ClassifierKind::Checker,
                 ..config
             },
             DetectorPreset::Colour => DetectorConfig {
@@ -77,10 +103,20 @@ pub fn classifier(
         return Ok(Box::new(c));
     }
     if path.extension().is_some_and(|e| e == "safetensors") {
-        let bytes = std::fs::read(path)
-            .with_context(|| format!("reading the ball network {}", path.display()))?;
-        let net = crate::detection::ballnet::BallNet::from_safetensors(&bytes)
-            .with_context(|| format!("{} is not a ball network", path.display()))?;
+        let bytes =
+            std::fs::read(path).with_context(|| format!("reading the model {}", path.display()))?;
+        if is_detector_file(&bytes) {
+            let checker = crate::detection::checker::Checker::from_safetensors(&bytes)
+                .with_context(|| format!("{}: the grey checker", path.display()))?;
+            return Ok(Box::new(checker));
+        }
+        let net =
+            crate::detection::ballnet::BallNet::from_safetensors(&bytes).with_context(|| {
+                format!(
+                    "{} is neither a two-stage detector nor a ball network",
+                    path.display()
+                )
+            })?;
         return Ok(Box::new(crate::detection::classifier::NetClassifier::new(
             net,
         )));
@@ -105,6 +141,39 @@ pub fn classifier(
         BallClassifier::new(model, detector.limits)
             .with_colour_check(detector.colour_check, patches),
     ))
+}
+
+/// Whether a weights file is a two-stage detector's (by the format its metadata names).
+fn is_detector_file(bytes: &[u8]) -> bool {
+    !matches!(
+        crate::detection::nn::WeightsFile::read(bytes, crate::detection::heatnet::FORMAT),
+        Err(crate::detection::nn::WeightsError::WrongFormat { .. })
+    )
+}
+
+/// The candidate network of `model` when it is a two-stage detector's file.
+pub fn candidate_net(model: Option<&Path>) -> Result<Option<HeatNet>> {
+    let Some(path) = model.filter(|p| p.extension().is_some_and(|e| e == "safetensors")) else {
+        return Ok(None);
+    };
+    let bytes =
+        std::fs::read(path).with_context(|| format!("reading the model {}", path.display()))?;
+    if !is_detector_file(&bytes) {
+        return Ok(None);
+    }
+    let net = HeatNet::from_safetensors(&bytes)
+        .with_context(|| format!("{}: the candidate network", path.display()))?;
+    Ok(Some(net))
+}
+
+/// The detector of the settings, with the candidate network of `model` when it is a
+/// two-stage detector's file (the shipped one otherwise).
+pub fn detector(config: &DetectorConfig, model: Option<&Path>) -> Result<Detector> {
+    match candidate_net(model)? {
+        Some(net) => Detector::with_net(*config, net),
+        None => Detector::new(*config),
+    }
+    .context("the detector's settings")
 }
 
 /// The left and right camera models: `left` from a file of `robot-agent calibrate` (or the

@@ -145,7 +145,10 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
     )?;
     let config = load_config(args.config.as_deref())?;
     let classifier = classifier(&config.detector, args.model.classifier.as_deref())?;
-    let agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;
+    let mut agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;
+    if let Some(net) = crate::runtime::models::candidate_net(args.model.classifier.as_deref())? {
+        agent = agent.with_candidate_net(net)?;
+    }
     let stop = Arc::new(AtomicBool::new(false));
     let net = NetConfig {
         mode: args.mode.clone(),

@@ -5,6 +5,7 @@
 //! `<!-- evaluate-labelled:begin -->` / `…:end -->`.
 
 use anyhow::Result;
+use eval::photo_eval::{stage_table_head, stage_table_note, stage_table_row};
 use eval::report;
 use robot_agent::DetectorPreset;
 use robot_agent::cli::evaluate::{EvaluateOptions, evaluate_items};
@@ -66,7 +67,7 @@ fn row(name: &str, split: &str, detector: &str, r: &LabelReport) -> String {
 }
 
 /// Scores both shipped detectors on the folder and prints (and, with `doc`, writes) the
-/// table.
+/// tables: the scores as published, and per stage.
 pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
     let Some(dir) = &args.labelled else {
         anyhow::bail!("--labelled DIR is needed");
@@ -93,9 +94,11 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
         "| event | split | detector | photos | with a ball | recall % | precision % | ball recall % | recall % at 97 % precision | recall % at 90 % precision | false per photo | < 10 px | 10–20 px | 20–40 px | >= 40 px | ms median |".to_string(),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
+    let mut stage_lines = Vec::new();
     let min_probability = robot_agent::ValidationConfig::default().min_probability;
     for (preset, name) in [
         (DetectorPreset::Net, "net"),
+        (DetectorPreset::TwoStage, "two-stage"),
         (DetectorPreset::Colour, "colour"),
     ] {
         let config = preset.apply(DetectorConfig::default());
@@ -125,6 +128,7 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
             };
             let out = score(&items, e)?;
             lines.push(row(e, split, name, &out.report));
+            stage_lines.push(stage_table_row(&[e, split, name], &out.report));
         }
         if !args.hold_out.is_empty() {
             let held: Vec<&Item> = folder
@@ -134,9 +138,19 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
                 .collect();
             let out = score(&held, "held out")?;
             lines.push(row("**all held out**", "held out", name, &out.report));
+            stage_lines.push(stage_table_row(
+                &["**all held out**", "held out", name],
+                &out.report,
+            ));
         }
     }
-    let table = lines.join("\n");
+    let table = format!(
+        "{}\n\n{}\n\n{}{}",
+        lines.join("\n"),
+        stage_table_note(min_probability),
+        stage_table_head(&["event", "split", "detector"]),
+        stage_lines.join("\n")
+    );
     println!("{table}");
     if let Some(path) = doc {
         let mut cmd = format!(

@@ -1,0 +1,240 @@
+//! Training the two-stage detector from labelled photos: the candidate network on whole
+//! photos, then the grey checker on patches cut around the labelled balls, around the new
+//! candidate network's peaks and the appearance proposals (its hard negatives), and at
+//! random; both with progress bars; then the whole detector scored on the held-out photos.
+
+use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
+use crate::cli::labelled::{Item, LabelledFolder};
+use crate::cli::progress::bar;
+use crate::detection::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
+use crate::detection::checker::{self, Checker};
+use crate::detection::detect::{Detector, DetectorConfig, Proposer};
+use crate::detection::detector_train::{
+    FramePhoto, Progress, StageTrainConfig, TrainedStage, candidate_net_of, train_candidates,
+    train_checker, weights_file,
+};
+use crate::detection::heatnet::{HeatNet, PeakConfig};
+use crate::image::RgbImage;
+use crate::labels::BallBox;
+use crate::labels::eval::LabelReport;
+use anyhow::{Context, Result};
+use indicatif::ProgressBar;
+use proto::rng::Rng;
+use std::collections::BTreeMap;
+
+/// The labelled photos of `items`, decoded; a photo that cannot be read is reported and
+/// left out.
+pub fn load_photos(
+    folder: &LabelledFolder,
+    items: &[&Item],
+    what: &str,
+) -> Vec<(RgbImage, Vec<BallBox>)> {
+    let bar = bar(items.len(), what);
+    let mut out = Vec::new();
+    for item in items {
+        let loaded = crate::io::image_io::load_rgb(&item.image)
+            .map_err(anyhow::Error::from)
+            .and_then(|image| Ok((folder.labels(item, &image)?.balls, image)));
+        match loaded {
+            Ok((balls, image)) => out.push((image, balls)),
+            Err(e) => bar.suspend(|| eprintln!("{}: left out: {e:#}", item.image.display())),
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    out
+}
+
+fn report_progress<'a>(bar: &'a ProgressBar, what: &str) -> impl FnMut(Progress) + 'a {
+    let what = what.to_string();
+    move |p| match p {
+        Progress::Batch { done, total } => {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        }
+        Progress::Epoch(r) => bar.suspend(|| {
+            eprintln!(
+                "{what} epoch {:>3}: training loss {:.4}, held-out loss {}",
+                r.epoch,
+                r.train_loss,
+                if r.val_loss.is_nan() {
+                    "– (nothing held out)".to_string()
+                } else {
+                    format!("{:.4}", r.val_loss)
+                }
+            )
+        }),
+    }
+}
+
+/// The checker's samples of some photos: every ball (and moved copies), the candidate
+/// network's peaks and the appearance proposals, random windows.
+fn checker_samples(
+    photos: &[(RgbImage, Vec<BallBox>)],
+    net: &HeatNet,
+    cfg: &SampleConfig,
+    seed: u64,
+    what: &str,
+) -> (Vec<Sample>, SampleCounts) {
+    let bar = bar(photos.len(), what);
+    let peaks = PeakConfig {
+        max_candidates: 24,
+        min_probability: 0.001,
+    };
+    let mut samples = Vec::new();
+    let mut counts = SampleCounts::default();
+    for (k, (image, balls)) in photos.iter().enumerate() {
+        let mut rng = Rng::stream(seed, "checker-samples", k as u64);
+        let extra = net.candidates(image, &peaks);
+        let (s, c) = photo_samples(image, balls, &extra, cfg, &mut rng);
+        samples.extend(s);
+        counts += c;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    eprintln!(
+        "{what}: {} photos, {} balls of which {} had a candidate, {} ball and {} other samples",
+        photos.len(),
+        counts.balls,
+        counts.proposed,
+        counts.positives,
+        counts.negatives
+    );
+    (samples, counts)
+}
+
+/// Which stages to train, and from what.
+#[derive(Debug)]
+pub struct DetectorTraining<'a> {
+    pub candidates: StageTrainConfig,
+    pub checker: StageTrainConfig,
+    /// Fine-tune from these stages (a detector file's) instead of starting afresh.
+    pub start: Option<&'a (TrainedStage, TrainedStage)>,
+    /// Random windows per photo for the checker.
+    pub random_negatives: usize,
+    /// Moved and scaled copies of each ball for the checker.
+    pub copies: usize,
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// What a training run made.
+#[derive(Debug)]
+pub struct TrainedDetector {
+    pub file: Vec<u8>,
+    pub net: HeatNet,
+    pub checker: Checker,
+    pub candidate_epochs: (usize, usize),
+    pub checker_epochs: (usize, usize),
+    /// Training balls the candidate stage reached, of all training balls.
+    pub training_balls_reached: (usize, usize),
+    pub held_out: Option<LabelReport>,
+}
+
+/// Trains both stages on the photos of `train`, scoring the detector on `val`.
+pub fn train_detector(
+    folder: &LabelledFolder,
+    train: &[&Item],
+    val: (&LabelledFolder, &[&Item]),
+    how: DetectorTraining<'_>,
+) -> Result<TrainedDetector> {
+    let train_photos = load_photos(folder, train, "loading training photos");
+    anyhow::ensure!(!train_photos.is_empty(), "no training photo could be read");
+    let val_photos = load_photos(val.0, val.1, "loading held-out photos");
+    let frames = |p: &[(RgbImage, Vec<BallBox>)]| -> Vec<FramePhoto> {
+        p.iter().map(|(i, b)| FramePhoto::new(i, b)).collect()
+    };
+    let (train_frames, val_frames) = (frames(&train_photos), frames(&val_photos));
+    let heat_bar = bar(0, "candidate network");
+    let heat = train_candidates(
+        &train_frames,
+        &val_frames,
+        &how.candidates,
+        how.start.map(|s| &s.0),
+        &mut report_progress(&heat_bar, "candidates"),
+    )?;
+    heat_bar.finish_and_clear();
+    drop((train_frames, val_frames));
+    let net = candidate_net_of(&heat)?;
+    let cfg = SampleConfig {
+        window_over_radius: checker::WINDOW_OVER_RADIUS,
+        // The candidate network's circles are a few pixels off a small ball: the checker
+        // learns balls that far off centre, and to correct them.
+        on_ball_offset: 0.8,
+        on_ball_ratio: 2.5,
+        copy_offset: 0.6,
+        copy_log_scale: 0.6,
+        copies_per_ball: how.copies,
+        random_per_photo: how.random_negatives,
+        appearance: crate::detection::contrast::AppearanceConfig {
+            max_candidates: 8,
+            ..Default::default()
+        },
+    };
+    let seed = how.checker.seed;
+    let (train_samples, counts) = checker_samples(
+        &train_photos,
+        &net,
+        &cfg,
+        seed,
+        "checker samples (training)",
+    );
+    let (val_samples, _) = checker_samples(
+        &val_photos,
+        &net,
+        &cfg,
+        seed + 1,
+        "checker samples (held out)",
+    );
+    let check_bar = bar(0, "grey checker");
+    let check = train_checker(
+        &train_samples,
+        &val_samples,
+        &how.checker,
+        how.start.map(|s| &s.1),
+        &mut report_progress(&check_bar, "checker"),
+    )?;
+    check_bar.finish_and_clear();
+    let (file, net, checker) = weights_file(&heat, &check, &how.metadata)?;
+    let held_out = if val.1.is_empty() {
+        None
+    } else {
+        let detector = net_detector(&DetectorConfig::default(), Some(net.clone()))?;
+        let out = evaluate_items(
+            val.0,
+            val.1,
+            &detector,
+            &checker,
+            &EvaluateOptions {
+                min_probability: 0.5,
+                what: "held-out score",
+                verbose: false,
+            },
+        )?;
+        Some(out.report)
+    };
+    Ok(TrainedDetector {
+        file,
+        net,
+        checker,
+        candidate_epochs: (heat.best_epoch, heat.epochs.len()),
+        checker_epochs: (check.best_epoch, check.epochs.len()),
+        training_balls_reached: (counts.proposed, counts.balls),
+        held_out,
+    })
+}
+
+/// The two-stage detector's settings over `base`: the candidate network's peaks and the
+/// strongest appearance proposals, judged by the grey checker.
+/// The shipped candidate network unless `net` is given.
+pub fn net_detector(base: &DetectorConfig, net: Option<HeatNet>) -> Result<Detector> {
+    let config = DetectorConfig {
+        proposer: Proposer::Net,
+        classifier: crate::detection::detect::ClassifierKind::Checker,
+        ..*base
+    };
+    match net {
+        Some(n) => Detector::with_net(config, n),
+        None => Detector::new(config),
+    }
+    .context("the detector's settings")
+}
