@@ -40,6 +40,7 @@ pub fn cell_centre_px(index: usize) -> f64 {
 }
 
 /// The cell whose centre is nearest to `x_px` (input pixels) along an axis of `cells`.
+#[cfg_attr(not(feature = "train"), allow(dead_code))]
 pub fn nearest_cell(x_px: f64, cells: usize) -> usize {
     (((x_px - 0.5) / CELL_PX as f64).round().max(0.0) as usize).min(cells.saturating_sub(1))
 }
@@ -426,6 +427,16 @@ mod tests {
         let small = InputGeometry::for_frame(224, 224);
         assert_eq!(small.scale, 1.0);
         assert_eq!(small.padded_width_px, 224);
+    }
+
+    #[test]
+    fn a_point_belongs_to_the_cell_whose_centre_is_nearest() {
+        assert_eq!(cell_centre_px(2), 16.5);
+        assert_eq!(nearest_cell(16.5, 10), 2);
+        assert_eq!(nearest_cell(20.4, 10), 2);
+        assert_eq!(nearest_cell(20.6, 10), 3);
+        assert_eq!(nearest_cell(-3.0, 10), 0);
+        assert_eq!(nearest_cell(500.0, 10), 9);
     }
 
     #[test]
