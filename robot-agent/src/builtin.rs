@@ -36,7 +36,7 @@ pub enum BuiltinError {
     #[error("the shipped ball network: {0}")]
     Net(#[from] BallNetError),
     #[error("the shipped detector: {0}")]
-    Detector(#[from] WeightsError),
+    Detector(WeightsError),
 }
 
 /// The shipped candidate network.
@@ -71,7 +71,7 @@ pub fn classifier(
     Ok(match detector.classifier {
         ClassifierKind::Net => Box::new(NetClassifier::new(ballnet()?)),
         ClassifierKind::HogSvm => Box::new(svm_classifier(detector)?),
-        ClassifierKind::Checker => Box::new(checker()?),
+        ClassifierKind::Checker => Box::new(checker().map_err(BuiltinError::Detector)?),
     })
 }
 

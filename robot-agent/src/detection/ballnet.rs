@@ -21,10 +21,10 @@
 //! or a truncated one, is refused with what was wrong.
 
 use crate::detection::hough::Circle;
+use crate::detection::nn::{WeightsError, WeightsFile};
 use crate::detection::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};
 use crate::image::RgbImage;
 use std::collections::BTreeMap;
-use thiserror::Error;
 
 /// The format named in a weights file's metadata.
 pub const FORMAT: &str = "ballnet-v1";
@@ -47,28 +47,8 @@ pub const LAST_SIDE: usize = PATCH_SIDE_PX >> CONVOLUTIONS.len();
 /// Inputs of the hidden layer.
 pub const FLAT: usize = LAST_SIDE * LAST_SIDE * CONVOLUTIONS[2].1;
 
-/// Why a weights file cannot be used.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum BallNetError {
-    #[error("not a safetensors weights file (truncated or another format): {0}")]
-    Format(String),
-    #[error("the weights file's format is {found:?}, this agent reads {FORMAT:?}")]
-    WrongFormat { found: String },
-    #[error("the weights file has no tensor {0:?}")]
-    Missing(String),
-    #[error(
-        "tensor {name:?} is {found:?}, the network needs {expected:?} (a model for another input size or architecture)"
-    )]
-    Shape {
-        name: String,
-        expected: Vec<usize>,
-        found: Vec<usize>,
-    },
-    #[error("tensor {0:?} is not 32-bit float")]
-    DType(String),
-    #[error("tensor {0:?} holds a value that is not finite")]
-    NotFinite(String),
-}
+/// Why a weights file cannot be used (the detector's networks share the reasons).
+pub type BallNetError = WeightsError;
 
 /// One 3×3 stride-2 convolution, weights `[ky][kx][in][out]`.
 #[derive(Debug, Clone, PartialEq)]
@@ -211,61 +191,16 @@ fn dense(input: &[f32], layer: &Dense, relu: bool, out: &mut Vec<f32>) {
     }
 }
 
-/// A tensor of a safetensors file as f32 values of the expected shape.
-fn tensor(
-    st: &safetensors::SafeTensors<'_>,
-    name: &str,
-    shape: &[usize],
-) -> Result<Vec<f32>, BallNetError> {
-    let t = st
-        .tensor(name)
-        .map_err(|_| BallNetError::Missing(name.to_string()))?;
-    if t.dtype() != safetensors::Dtype::F32 {
-        return Err(BallNetError::DType(name.to_string()));
-    }
-    if t.shape() != shape {
-        return Err(BallNetError::Shape {
-            name: name.to_string(),
-            expected: shape.to_vec(),
-            found: t.shape().to_vec(),
-        });
-    }
-    let values: Vec<f32> = t
-        .data()
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect();
-    if values.iter().any(|v| !v.is_finite()) {
-        return Err(BallNetError::NotFinite(name.to_string()));
-    }
-    Ok(values)
-}
-
 impl BallNet {
     /// The network of a weights file's bytes.
     pub fn from_safetensors(bytes: &[u8]) -> Result<Self, BallNetError> {
-        let (_, meta) = safetensors::SafeTensors::read_metadata(bytes)
-            .map_err(|e| BallNetError::Format(e.to_string()))?;
-        let metadata: BTreeMap<String, String> = meta
-            .metadata()
-            .as_ref()
-            .map(|m| m.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
-            .unwrap_or_default();
-        match metadata.get("format") {
-            Some(f) if f == FORMAT => {}
-            other => {
-                return Err(BallNetError::WrongFormat {
-                    found: other.cloned().unwrap_or_else(|| "unnamed".to_string()),
-                });
-            }
-        }
-        let st = safetensors::SafeTensors::deserialize(bytes)
-            .map_err(|e| BallNetError::Format(e.to_string()))?;
+        let file = WeightsFile::read(bytes, FORMAT)?;
+        let tensor = |name: &str, shape: &[usize]| file.tensor(name, shape);
         let mut convs = Vec::new();
         for (k, &(cin, cout)) in CONVOLUTIONS.iter().enumerate() {
             let name = format!("conv{}", k + 1);
-            let w = tensor(&st, &format!("{name}.weight"), &[cout, cin, 3, 3])?;
-            let bias = tensor(&st, &format!("{name}.bias"), &[cout])?;
+            let w = tensor(&format!("{name}.weight"), &[cout, cin, 3, 3])?;
+            let bias = tensor(&format!("{name}.bias"), &[cout])?;
             // [out][in][ky][kx] to [ky][kx][in][out].
             let mut weights = vec![0f32; w.len()];
             for o in 0..cout {
@@ -287,7 +222,7 @@ impl BallNet {
         }
         let channels = CONVOLUTIONS[2].1;
         let cells = LAST_SIDE * LAST_SIDE;
-        let w = tensor(&st, "fc1.weight", &[HIDDEN, FLAT])?;
+        let w = tensor("fc1.weight", &[HIDDEN, FLAT])?;
         let mut weights = vec![0f32; w.len()];
         for o in 0..HIDDEN {
             for c in 0..channels {
@@ -301,9 +236,9 @@ impl BallNet {
         let hidden = Dense {
             cout: HIDDEN,
             weights,
-            bias: tensor(&st, "fc1.bias", &[HIDDEN])?,
+            bias: tensor("fc1.bias", &[HIDDEN])?,
         };
-        let w = tensor(&st, "fc2.weight", &[OUTPUTS, HIDDEN])?;
+        let w = tensor("fc2.weight", &[OUTPUTS, HIDDEN])?;
         let mut weights = vec![0f32; w.len()];
         for o in 0..OUTPUTS {
             for i in 0..HIDDEN {
@@ -313,13 +248,13 @@ impl BallNet {
         let output = Dense {
             cout: OUTPUTS,
             weights,
-            bias: tensor(&st, "fc2.bias", &[OUTPUTS])?,
+            bias: tensor("fc2.bias", &[OUTPUTS])?,
         };
         Ok(BallNet {
             convs,
             hidden,
             output,
-            metadata,
+            metadata: file.metadata().clone(),
         })
     }
 
