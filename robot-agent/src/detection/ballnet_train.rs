@@ -20,7 +20,7 @@ use crate::detection::patch::PATCH_SIDE_PX;
 use candle_core::{DType, Device, Tensor};
 use candle_nn::{Conv2d, Conv2dConfig, Linear, Module, Optimizer, VarBuilder, VarMap};
 use proto::rng::Rng;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use thiserror::Error;
 
 /// The training's settings.
@@ -183,17 +183,9 @@ fn loss(
     Ok((total, right))
 }
 
-/// The variables by name, in name order (a fixed order for the file and the seeded
-/// initialisation).
+/// The variables by name, in name order.
 fn sorted_vars(varmap: &VarMap) -> Result<Vec<(String, candle_core::Var)>, NetTrainError> {
-    let vars = varmap
-        .data()
-        .lock()
-        .map_err(|_| NetTrainError::Serialise("the variables' lock is poisoned".into()))?;
-    let mut out: Vec<(String, candle_core::Var)> =
-        vars.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
-    out.sort_by(|a, b| a.0.cmp(&b.0));
-    Ok(out)
+    crate::detection::detector_train::sorted_vars(varmap).map_err(NetTrainError::Serialise)
 }
 
 /// The weights file of the current variables.
@@ -201,27 +193,13 @@ fn weights_file(
     varmap: &VarMap,
     metadata: &BTreeMap<String, String>,
 ) -> Result<Vec<u8>, NetTrainError> {
-    let mut bufs = Vec::new();
+    let mut tensors = Vec::new();
     for (name, var) in sorted_vars(varmap)? {
         let t = var.as_tensor();
-        let values = t.flatten_all()?.to_vec1::<f32>()?;
-        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        bufs.push((name.clone(), t.dims().to_vec(), bytes));
+        tensors.push((name, t.dims().to_vec(), t.flatten_all()?.to_vec1::<f32>()?));
     }
-    let views = bufs
-        .iter()
-        .map(|(n, s, b)| {
-            safetensors::tensor::TensorView::new(safetensors::Dtype::F32, s.clone(), b)
-                .map(|v| (n.clone(), v))
-                .map_err(|e| NetTrainError::Serialise(e.to_string()))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut meta: HashMap<String, String> = metadata
-        .iter()
-        .map(|(k, v)| (k.clone(), v.clone()))
-        .collect();
-    meta.insert("format".into(), FORMAT.into());
-    safetensors::serialize(views, Some(meta)).map_err(|e| NetTrainError::Serialise(e.to_string()))
+    crate::detection::detector_train::encode(&tensors, metadata, FORMAT)
+        .map_err(NetTrainError::Serialise)
 }
 
 /// The same weights file with other metadata (the format is kept).
@@ -229,15 +207,8 @@ pub fn with_metadata(
     file: &[u8],
     metadata: &BTreeMap<String, String>,
 ) -> Result<Vec<u8>, NetTrainError> {
-    let st = safetensors::SafeTensors::deserialize(file)
-        .map_err(|e| NetTrainError::Serialise(e.to_string()))?;
-    let mut meta: HashMap<String, String> = metadata
-        .iter()
-        .map(|(k, v)| (k.clone(), v.clone()))
-        .collect();
-    meta.insert("format".into(), FORMAT.into());
-    safetensors::serialize(st.tensors(), Some(meta))
-        .map_err(|e| NetTrainError::Serialise(e.to_string()))
+    crate::detection::detector_train::restamp(file, metadata, FORMAT)
+        .map_err(NetTrainError::Serialise)
 }
 
 /// Trains the network on `train`, keeping the epoch that does best on `val` (which may be

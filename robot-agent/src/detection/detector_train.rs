@@ -459,20 +459,113 @@ fn heat_loss(layers: &HeatLayers, crops: &[Crop], device: &Device) -> candle_cor
     focal + place
 }
 
-/// The variables by name, in name order.
-fn sorted_vars(varmap: &VarMap) -> Result<Vec<(String, candle_core::Var)>, DetectorTrainError> {
+/// The variables by name, in name order (a fixed order for the file and the seeded
+/// initialisation); the colour-patch network's training uses it too.
+pub(crate) fn sorted_vars(varmap: &VarMap) -> Result<Vec<(String, candle_core::Var)>, String> {
     let vars = varmap
         .data()
         .lock()
-        .map_err(|_| DetectorTrainError::Serialise("the variables' lock is poisoned".into()))?;
+        .map_err(|_| "the variables' lock is poisoned".to_string())?;
     let mut out: Vec<(String, candle_core::Var)> =
         vars.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
     out.sort_by(|a, b| a.0.cmp(&b.0));
     Ok(out)
 }
 
+/// Safetensors bytes of named f32 tensors (name, shape, values) with `metadata` and the
+/// `format` named in it; the colour-patch network's training writes its file with it too.
+pub(crate) fn encode(
+    tensors: &[(String, Vec<usize>, Vec<f32>)],
+    metadata: &BTreeMap<String, String>,
+    format: &str,
+) -> Result<Vec<u8>, String> {
+    let bytes: Vec<Vec<u8>> = tensors
+        .iter()
+        .map(|(_, _, v)| v.iter().flat_map(|x| x.to_le_bytes()).collect())
+        .collect();
+    let views = tensors
+        .iter()
+        .zip(&bytes)
+        .map(|((n, s, _), b)| {
+            safetensors::tensor::TensorView::new(safetensors::Dtype::F32, s.clone(), b)
+                .map(|v| (n.clone(), v))
+                .map_err(|e| e.to_string())
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    safetensors::serialize(views, Some(file_metadata(metadata, format))).map_err(|e| e.to_string())
+}
+
+/// The same weights file with other metadata and the `format` named in it.
+pub(crate) fn restamp(
+    file: &[u8],
+    metadata: &BTreeMap<String, String>,
+    format: &str,
+) -> Result<Vec<u8>, String> {
+    let st = safetensors::SafeTensors::deserialize(file).map_err(|e| e.to_string())?;
+    safetensors::serialize(st.tensors(), Some(file_metadata(metadata, format)))
+        .map_err(|e| e.to_string())
+}
+
+fn file_metadata(metadata: &BTreeMap<String, String>, format: &str) -> HashMap<String, String> {
+    let mut meta: HashMap<String, String> = metadata
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    meta.insert("format".into(), format.into());
+    meta
+}
+
+/// The epochs' reports and the weights of the best one so far: the lowest held-out loss,
+/// or the last epoch when nothing is held out.
+struct Epochs {
+    reports: Vec<EpochReport>,
+    best: Option<(f64, usize, Tensors)>,
+}
+
+impl Epochs {
+    fn new() -> Self {
+        Epochs {
+            reports: Vec::new(),
+            best: None,
+        }
+    }
+
+    /// Records an epoch (reported to `progress`), keeping the variables when it is the best.
+    fn record(
+        &mut self,
+        report: EpochReport,
+        held_out: bool,
+        varmap: &VarMap,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(), DetectorTrainError> {
+        progress(Progress::Epoch(report));
+        self.reports.push(report);
+        let key = if held_out {
+            report.val_loss
+        } else {
+            -(report.epoch as f64)
+        };
+        if self.best.as_ref().is_none_or(|(k, _, _)| key <= *k) {
+            self.best = Some((key, report.epoch, snapshot(varmap)?));
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<TrainedStage, DetectorTrainError> {
+        let (_, best_epoch, tensors) = self
+            .best
+            .ok_or_else(|| DetectorTrainError::Settings("no epoch ran".into()))?;
+        Ok(TrainedStage {
+            tensors,
+            epochs: self.reports,
+            best_epoch,
+        })
+    }
+}
+
 fn snapshot(varmap: &VarMap) -> Result<Tensors, DetectorTrainError> {
-    sorted_vars(varmap)?
+    sorted_vars(varmap)
+        .map_err(DetectorTrainError::Serialise)?
         .into_iter()
         .map(|(name, var)| {
             let t = var.as_tensor();
@@ -488,7 +581,11 @@ fn initialise(
     seed: u64,
     start: Option<&TrainedStage>,
 ) -> Result<(), DetectorTrainError> {
-    for (k, (name, var)) in sorted_vars(varmap)?.into_iter().enumerate() {
+    for (k, (name, var)) in sorted_vars(varmap)
+        .map_err(DetectorTrainError::Serialise)?
+        .into_iter()
+        .enumerate()
+    {
         let dims = var.as_tensor().dims().to_vec();
         let n: usize = dims.iter().product();
         let given = start.and_then(|s| {
@@ -514,7 +611,7 @@ fn initialise(
 
 /// The head's logit bias at the start: a ball is rare among cells.
 fn prior_bias(varmap: &VarMap) -> Result<(), DetectorTrainError> {
-    for (name, var) in sorted_vars(varmap)? {
+    for (name, var) in sorted_vars(varmap).map_err(DetectorTrainError::Serialise)? {
         if name == "head.bias" {
             let mut v = var.as_tensor().to_vec1::<f32>()?;
             v[0] = -4.6;
@@ -574,8 +671,7 @@ pub fn train_candidates(
         .iter()
         .flat_map(|p| [crop(p, &mut val_rng, true), crop(p, &mut val_rng, false)])
         .collect();
-    let mut epochs = Vec::new();
-    let mut best: Option<(f64, usize, Tensors)> = None;
+    let mut epochs = Epochs::new();
     for epoch in 0..cfg.epochs {
         let mut sum = 0.0;
         for b in 0..batches {
@@ -606,24 +702,9 @@ pub fn train_candidates(
             train_loss: sum / batches as f64,
             val_loss,
         };
-        progress(Progress::Epoch(report));
-        epochs.push(report);
-        let key = if val_crops.is_empty() {
-            -(epoch as f64)
-        } else {
-            val_loss
-        };
-        if best.as_ref().is_none_or(|(k, _, _)| key <= *k) {
-            best = Some((key, epoch + 1, snapshot(&varmap)?));
-        }
+        epochs.record(report, !val_crops.is_empty(), &varmap, progress)?;
     }
-    let (_, best_epoch, tensors) =
-        best.ok_or_else(|| DetectorTrainError::Settings("no epoch ran".into()))?;
-    Ok(TrainedStage {
-        tensors,
-        epochs,
-        best_epoch,
-    })
+    epochs.finish()
 }
 
 /// The checker as candle layers.
@@ -723,8 +804,7 @@ pub fn train_checker(
     let batches = train.len().div_ceil(cfg.batch);
     let total = batches * cfg.epochs;
     let mut order: Vec<usize> = (0..train.len()).collect();
-    let mut epochs = Vec::new();
-    let mut best: Option<(f64, usize, Tensors)> = None;
+    let mut epochs = Epochs::new();
     for epoch in 0..cfg.epochs {
         rng.shuffle(&mut order);
         let mut sum = 0.0;
@@ -759,24 +839,9 @@ pub fn train_checker(
             train_loss: sum / train.len() as f64,
             val_loss,
         };
-        progress(Progress::Epoch(report));
-        epochs.push(report);
-        let key = if val.is_empty() {
-            -(epoch as f64)
-        } else {
-            val_loss
-        };
-        if best.as_ref().is_none_or(|(k, _, _)| key <= *k) {
-            best = Some((key, epoch + 1, snapshot(&varmap)?));
-        }
+        epochs.record(report, !val.is_empty(), &varmap, progress)?;
     }
-    let (_, best_epoch, tensors) =
-        best.ok_or_else(|| DetectorTrainError::Settings("no epoch ran".into()))?;
-    Ok(TrainedStage {
-        tensors,
-        epochs,
-        best_epoch,
-    })
+    epochs.finish()
 }
 
 /// Both stages of a detector's weights file, to fine-tune from.
@@ -820,28 +885,16 @@ fn serialise(
     stages: &[(&str, &TrainedStage)],
     metadata: &BTreeMap<String, String>,
 ) -> Result<Vec<u8>, DetectorTrainError> {
-    let mut bufs = Vec::new();
-    for (prefix, stage) in stages {
-        for (name, dims, values) in &stage.tensors {
-            let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-            bufs.push((format!("{prefix}.{name}"), dims.clone(), bytes));
-        }
-    }
-    let views = bufs
+    let tensors: Tensors = stages
         .iter()
-        .map(|(n, s, b)| {
-            safetensors::tensor::TensorView::new(safetensors::Dtype::F32, s.clone(), b)
-                .map(|v| (n.clone(), v))
-                .map_err(|e| DetectorTrainError::Serialise(e.to_string()))
+        .flat_map(|(prefix, stage)| {
+            stage
+                .tensors
+                .iter()
+                .map(move |(n, d, v)| (format!("{prefix}.{n}"), d.clone(), v.clone()))
         })
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut meta: HashMap<String, String> = metadata
-        .iter()
-        .map(|(k, v)| (k.clone(), v.clone()))
         .collect();
-    meta.insert("format".into(), FORMAT.into());
-    safetensors::serialize(views, Some(meta))
-        .map_err(|e| DetectorTrainError::Serialise(e.to_string()))
+    encode(&tensors, metadata, FORMAT).map_err(DetectorTrainError::Serialise)
 }
 
 /// The agent's candidate network of a trained stage.
@@ -870,15 +923,7 @@ pub fn with_metadata(
     file: &[u8],
     metadata: &BTreeMap<String, String>,
 ) -> Result<Vec<u8>, DetectorTrainError> {
-    let st = safetensors::SafeTensors::deserialize(file)
-        .map_err(|e| DetectorTrainError::Serialise(e.to_string()))?;
-    let mut meta: HashMap<String, String> = metadata
-        .iter()
-        .map(|(k, v)| (k.clone(), v.clone()))
-        .collect();
-    meta.insert("format".into(), FORMAT.into());
-    safetensors::serialize(st.tensors(), Some(meta))
-        .map_err(|e| DetectorTrainError::Serialise(e.to_string()))
+    restamp(file, metadata, FORMAT).map_err(DetectorTrainError::Serialise)
 }
 
 /// The candle forward passes of a trained pair on given inputs, for the tests that hold
