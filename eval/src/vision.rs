@@ -13,12 +13,13 @@ use proto::{Camera, Observation};
 use robot_agent::CameraModel;
 use robot_agent::NoClock;
 use robot_agent::RgbImage;
-use robot_agent::{Agent, FrameInput, PipelineConfig};
+use robot_agent::{Agent, DetectorPreset, FrameInput, PipelineConfig};
 use sim::BallTruth;
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig};
 use sim::{Delivery, ObsKind, SimConfig, SimRun};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The simulator puts pixel centres at +0.5 (its origin is the top-left pixel's corner);
@@ -27,11 +28,15 @@ use std::time::Instant;
 pub const SIM_PIXEL_OFFSET: f64 = 0.5;
 
 /// How the rendered frames become deliveries.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct VisionConfig {
     pub camera: CameraWorldConfig,
     /// Fixed delay from capture to the fusion core: the pipeline plus the network.
     pub latency_s: f64,
+    /// The agent's detector (`Config`: the pipeline's defaults, the MiRo's colour path).
+    pub detector: DetectorPreset,
+    /// A model file of `robot-agent train` in place of the shipped one.
+    pub model: Option<PathBuf>,
 }
 
 impl Default for VisionConfig {
@@ -39,6 +44,8 @@ impl Default for VisionConfig {
         VisionConfig {
             camera: CameraWorldConfig::default(),
             latency_s: 0.040,
+            detector: DetectorPreset::Config,
+            model: None,
         }
     }
 }
@@ -181,19 +188,20 @@ fn judge(
     (visible, hit, radius)
 }
 
-/// The shipped agent for robot `id`: the simulator calibration for both cameras, the
-/// default pipeline settings and the shipped classifier.
-pub fn shipped_agent(id: &str, run: &SimRun) -> anyhow::Result<Agent> {
-    let config = PipelineConfig::default();
+/// The agent for robot `id` as `run` makes it: the simulator calibration for both cameras,
+/// the default pipeline settings with the configured detector, and the shipped classifier
+/// (or the configured model's).
+pub fn shipped_agent(id: &str, run: &SimRun, cfg: &VisionConfig) -> anyhow::Result<Agent> {
+    let mut config = PipelineConfig::default();
+    let model_file = cfg.model.as_deref();
+    config.detector = cfg.detector.with_model(model_file).apply(config.detector);
     let model = robot_agent::builtin::sim_calibration()?.model;
-    let classifier = robot_agent::builtin::classifier(&config.detector)?;
-    Ok(Agent::new(
-        id,
-        run.pitch.clone(),
-        config,
-        [model, model],
-        classifier,
-    )?)
+    let classifier = robot_agent::load_classifier(&config.detector, model_file)?;
+    let mut agent = Agent::new(id, run.pitch.clone(), config, [model, model], classifier)?;
+    if let Some(net) = robot_agent::load_candidate_net(model_file)? {
+        agent = agent.with_candidate_net(net)?;
+    }
+    Ok(agent)
 }
 
 /// Renders every observer's cameras over the run and feeds the frames to its agent. Returns
@@ -208,7 +216,7 @@ pub fn perceive(
     let mut deliveries = Vec::new();
     let mut frames = Vec::new();
     for id in run.observer_ids() {
-        let mut agent = shipped_agent(&id, run)?;
+        let mut agent = shipped_agent(&id, run, cfg)?;
         for (k, t_s) in world.frame_times().enumerate() {
             let capture = world.capture(&id, t_s, k as u64);
             let stamp = run.stamp_of(t_s);

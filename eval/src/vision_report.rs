@@ -10,11 +10,23 @@ use serde::Serialize;
 use sim::{mean, quantile, rms};
 use std::path::Path;
 
-pub const SECTION_BEGIN: &str = "<!-- evaluate-vision:begin -->";
-pub const SECTION_END: &str = "<!-- evaluate-vision:end -->";
-/// The same with the patterned ball (`evaluate --vision --patterned-ball`).
-pub const PATTERNED_SECTION_BEGIN: &str = "<!-- evaluate-vision-patterned:begin -->";
-pub const PATTERNED_SECTION_END: &str = "<!-- evaluate-vision-patterned:end -->";
+/// The name of a vision run's generated section in the docs (`<!-- NAME:begin -->` …
+/// `<!-- NAME:end -->`): `evaluate-vision`, with `-patterned` for the patterned ball and
+/// `-two-stage` (or the preset's name) for a detector other than the pipeline's default.
+pub fn section_name(patterned: bool, detector: robot_agent::DetectorPreset) -> String {
+    use clap::ValueEnum;
+    let mut name = String::from("evaluate-vision");
+    if patterned {
+        name.push_str("-patterned");
+    }
+    if detector != robot_agent::DetectorPreset::Config
+        && let Some(v) = detector.to_possible_value()
+    {
+        name.push('-');
+        name.push_str(v.get_name());
+    }
+    name
+}
 
 /// Detection counted over frames, the way `sim_agent` counts against the truth.
 #[derive(Debug, Clone, Default, Serialize, PartialEq)]

@@ -91,3 +91,28 @@ fn assert_honest(frames: &[FrameStat]) {
         nees.len()
     );
 }
+
+#[test]
+fn the_two_stage_detector_runs_in_the_robots_pipeline() {
+    // The candidate network and the grey checker in place of the colour path, as
+    // `run --detector two-stage` runs them on a MiRo.
+    let sim_cfg = sim::SimConfig {
+        duration_s: Some(3.0),
+        ..sim::SimConfig::default()
+    };
+    let cfg = VisionConfig {
+        detector: robot_agent::DetectorPreset::TwoStage,
+        ..VisionConfig::default()
+    };
+    let run = sim::run_scenario("seed-1-across", 1, &sim_cfg).expect("scenario");
+    let (_, frames) = perceive(&run, &cfg).expect("perceive");
+    let d = Detection::of(&frames);
+    assert!(d.visible > 15, "{d:?}");
+    let recall = d.recall.expect("recall");
+    let precision = d.precision.expect("precision");
+    assert!(recall >= 0.7, "two-stage recall {recall:.3} < 0.7 ({d:?})");
+    assert!(
+        precision >= 0.85,
+        "two-stage precision {precision:.3} < 0.85 ({d:?})"
+    );
+}

@@ -8,6 +8,7 @@
 //! its corners swapped is an error.
 
 pub mod eval;
+pub mod prelabel;
 pub mod voc;
 pub mod yolo;
 

@@ -144,6 +144,92 @@ fn a_folder_of_photos_gives_a_line_per_photo_and_counts_the_bad_one() {
 }
 
 #[test]
+fn photos_in_event_folders_become_label_files_to_correct() {
+    let dir = tempfile::tempdir().unwrap();
+    let photos = dir.path().join("photos");
+    for event in ["e1", "e2"] {
+        std::fs::create_dir_all(photos.join(event)).unwrap();
+    }
+    let (ball, truth) = rendered(Some([0.8, 0.05]));
+    let (centre, radius) = truth.expect("the ball is in the left camera's view");
+    write_png(&photos.join("e1/ball.png"), &ball);
+    write_png(&photos.join("e2/empty.png"), &rendered(None).0);
+    let yolo = dir.path().join("yolo");
+    let out = detect(&[
+        "--images",
+        photos.to_str().unwrap(),
+        "--write-labels",
+        "yolo",
+        yolo.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let files: Vec<String> = lines(&out.stdout)
+        .iter()
+        .map(|l| l["file"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(
+        files,
+        ["e1/ball.png", "e2/empty.png"],
+        "subfolders are searched"
+    );
+    // The ball's label: class 0, its box centred on the ball.
+    let label = std::fs::read_to_string(yolo.join("e1/ball.txt")).unwrap();
+    let v: Vec<f64> = label
+        .split_whitespace()
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert_eq!(v.len(), 5, "{label}");
+    assert_eq!(v[0], 0.0);
+    let (u, w) = (v[1] * 640.0 - 0.5, v[3] * 640.0);
+    assert!((u - centre[0]).abs() < 0.3 * radius.max(4.0), "{label}");
+    assert!((0.5 * w - radius).abs() < 0.35 * radius, "{label}");
+    assert_eq!(
+        std::fs::read_to_string(yolo.join("e2/empty.txt")).unwrap(),
+        ""
+    );
+    assert_eq!(
+        std::fs::read_to_string(yolo.join("classes.txt")).unwrap(),
+        "ball\n"
+    );
+    let review = std::fs::read_to_string(yolo.join("review.csv")).unwrap();
+    let rows: Vec<&str> = review.lines().collect();
+    assert_eq!(rows.len(), 3, "{review}");
+    assert!(rows[0].starts_with("photo,uncertainty"));
+
+    // VOC into a folder where a person already corrected one photo: theirs is kept.
+    let voc = dir.path().join("voc");
+    std::fs::create_dir_all(voc.join("e2")).unwrap();
+    std::fs::write(voc.join("e2/empty.xml"), "corrected by hand").unwrap();
+    let out = detect(&[
+        "--images",
+        photos.to_str().unwrap(),
+        "--write-labels",
+        "voc",
+        voc.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("1 existing ones kept"), "{stderr}");
+    let xml = std::fs::read_to_string(voc.join("e1/ball.xml")).unwrap();
+    assert!(xml.contains("<filename>ball.png</filename>") && xml.contains("<name>ball</name>"));
+    assert_eq!(
+        std::fs::read_to_string(voc.join("e2/empty.xml")).unwrap(),
+        "corrected by hand"
+    );
+    // A format nobody reads is refused before any photo is looked at.
+    let out = detect(&[
+        "--images",
+        photos.to_str().unwrap(),
+        "--write-labels",
+        "coco",
+        voc.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("yolo or voc"));
+}
+
+#[test]
 fn a_calibration_of_another_size_is_an_error_unless_rescaled() {
     let dir = tempfile::tempdir().unwrap();
     let photos = dir.path().join("photos");

@@ -12,10 +12,11 @@ mod labelled_cmd;
 mod tracks_cmd;
 
 use anyhow::Context;
-use clap::Parser;
+use clap::{Parser, ValueEnum};
 use eval::vision::{VisionConfig, evaluate_vision, shipped_lens_error};
 use eval::vision_report::{self, CalibrationCheck};
 use eval::{plots, report, scenarios};
+use robot_agent::DetectorPreset;
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
@@ -34,6 +35,15 @@ struct Args {
     /// generated section is marked `<!-- evaluate-vision-patterned:begin -->` / `…:end -->`.
     #[arg(long, requires = "vision")]
     patterned_ball: bool,
+    /// With `--vision`: the agent's detector (`config`: the pipeline's defaults, the MiRo's
+    /// colour path; `two-stage`: the candidate network and the grey checker). Its generated
+    /// section is marked `<!-- evaluate-vision-two-stage:begin -->` / `…:end -->` (with
+    /// `--patterned-ball`: `evaluate-vision-patterned-two-stage`).
+    #[arg(long, value_enum, default_value_t = DetectorPreset::Config, requires = "vision")]
+    detector: DetectorPreset,
+    /// With `--vision`: a model file of `robot-agent train` in place of the shipped one.
+    #[arg(long, requires = "vision")]
+    model: Option<PathBuf>,
     /// Write the full report as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -197,6 +207,14 @@ fn command(args: &Args, names: &[&str], seeds: u64) -> String {
     if args.patterned_ball {
         cmd.push_str(" --patterned-ball");
     }
+    if args.detector != DetectorPreset::Config
+        && let Some(v) = args.detector.to_possible_value()
+    {
+        cmd.push_str(&format!(" --detector {}", v.get_name()));
+    }
+    if let Some(model) = &args.model {
+        cmd.push_str(&format!(" --model {}", model.display()));
+    }
     cmd.push_str(&format!(" --seeds {seeds}"));
     if let Some(doc) = &args.doc {
         cmd.push_str(&format!(" --doc {}", doc.display()));
@@ -216,6 +234,8 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     if args.patterned_ball {
         vcfg.camera.ball_look = sim::patterned_ball();
     }
+    vcfg.detector = args.detector;
+    vcfg.model = args.model.clone();
     let started = std::time::Instant::now();
     let results = evaluate_vision(&names, seeds, &sim::SimConfig::default(), &vcfg, args.jobs)?;
     let grid_step_px = 4.0;
@@ -244,25 +264,23 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
             args.jobs,
             vcfg.latency_s * 1e3,
         );
-        let (begin, end) = if args.patterned_ball {
-            (
-                vision_report::PATTERNED_SECTION_BEGIN,
-                vision_report::PATTERNED_SECTION_END,
-            )
-        } else {
-            (vision_report::SECTION_BEGIN, vision_report::SECTION_END)
-        };
-        report::rewrite_section_between(path, begin, end, &section)?;
+        let marker = vision_report::section_name(args.patterned_ball, args.detector);
+        let (begin, end) = (
+            format!("<!-- {marker}:begin -->"),
+            format!("<!-- {marker}:end -->"),
+        );
+        report::rewrite_section_between(path, &begin, &end, &section)?;
         eprintln!("updated {}", path.display());
     }
-    let plot = if args.patterned_ball {
-        "vision_recall_by_radius_patterned.png"
-    } else {
-        "vision_recall_by_radius.png"
-    };
+    let plot = format!(
+        "{}.png",
+        vision_report::section_name(args.patterned_ball, args.detector)
+            .replace("evaluate-vision", "vision_recall_by_radius")
+            .replace('-', "_")
+    );
     eprintln!(
         "wrote {}",
-        vision_report::write_plot(&args.plots, plot, &rep)?
+        vision_report::write_plot(&args.plots, &plot, &rep)?
     );
     Ok(())
 }

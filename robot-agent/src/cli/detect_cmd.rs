@@ -1,6 +1,8 @@
-//! `robot-agent detect`: the detector on a plain folder of photos (PNG or JPEG, no index, no
-//! pose), one JSON line per photo with every candidate it considered, and optionally the
-//! photos with the candidates drawn.
+//! `robot-agent detect`: the detector on a folder of photos (PNG or JPEG, subfolders
+//! included, no index, no pose), one JSON line per photo with every candidate it considered,
+//! and optionally the photos with the candidates drawn and its balls as label files for a
+//! person to correct (`--write-labels yolo|voc DIR`, with `review.csv` listing the least
+//! certain photos first).
 //!
 //! A photo that cannot be read or decoded is reported on its own line (`file`, `error`) and
 //! counted; the run goes on and fails at the end if any photo did.
@@ -8,7 +10,9 @@
 use super::camera_args::{CameraArgs, PhotoCamera};
 use crate::detection::detect::{CandidateClassifier, Detector, NoClock};
 use crate::detection::photo::{PhotoCandidate, detect_photo, overlay};
+use crate::labels::prelabel::{self, LabelFormat};
 use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -20,9 +24,15 @@ pub struct DetectArgs {
     pub model: crate::runtime::models::ClassifierArgs,
     #[command(flatten)]
     pub detector: crate::runtime::models::DetectorArgs,
-    /// Folder of photos (PNG or JPEG; other files are left alone).
+    /// Folder of photos (PNG or JPEG, subfolders included; other files are left alone).
     #[arg(long)]
     pub images: PathBuf,
+    /// Write the published balls as label files to correct in a labelling tool: `yolo DIR`
+    /// (`NAME.txt` and `classes.txt`) or `voc DIR` (`NAME.xml`), in the photos' subfolders;
+    /// `DIR/review.csv` lists the photos least certain first. A label file that already
+    /// exists is kept, not overwritten.
+    #[arg(long, num_args = 2, value_names = ["FORMAT", "DIR"])]
+    pub write_labels: Vec<String>,
     /// Write the JSON lines here instead of to stdout.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -112,10 +122,18 @@ pub fn run(args: DetectArgs) -> Result<()> {
         )?,
         min_probability: config.validation.min_probability,
     };
+    let mut labels = match args.write_labels.as_slice() {
+        [] => None,
+        [format, dir] => Some(LabelWriter::new(format, dir, detection.min_probability)?),
+        _ => bail!("--write-labels takes a format (yolo or voc) and a folder"),
+    };
     let mut camera = PhotoCamera::new(&args.camera)?;
-    let files = crate::io::image_io::image_files(&args.images)?;
+    let files = crate::io::image_io::image_files_recursive(&args.images)?;
     if files.is_empty() {
-        bail!("{} holds no PNG or JPEG files", args.images.display());
+        bail!(
+            "{} and its subfolders hold no PNG or JPEG files",
+            args.images.display()
+        );
     }
     if let Some(dir) = &args.overlays {
         prepare_overlays(dir, &args.images)?;
@@ -129,10 +147,7 @@ pub fn run(args: DetectArgs) -> Result<()> {
     let (mut failed, mut with_ball) = (0usize, 0usize);
     let mut last_progress = Instant::now();
     for (k, path) in files.iter().enumerate() {
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let name = relative_name(path, &args.images);
         match detect_one(
             path,
             &name,
@@ -142,6 +157,9 @@ pub fn run(args: DetectArgs) -> Result<()> {
         ) {
             Ok(line) => {
                 with_ball += usize::from(line.candidates.iter().any(|c| c.published));
+                if let Some(w) = labels.as_mut() {
+                    w.add(&name, &line)?;
+                }
                 writeln!(out, "{}", serde_json::to_string(&line)?)?;
             }
             Err(Failure::Photo(err)) => {
@@ -166,10 +184,146 @@ pub fn run(args: DetectArgs) -> Result<()> {
         "{} photos: a ball published in {with_ball}, {failed} could not be processed",
         files.len()
     );
+    if let Some(w) = labels {
+        w.finish()?;
+    }
     if failed > 0 {
         bail!("{failed} of {} photos could not be processed", files.len());
     }
     Ok(())
+}
+
+/// A photo's path below the photos' folder, with `/` between folders (its file name when
+/// it is not below it).
+fn relative_name(path: &Path, images: &Path) -> String {
+    match path.strip_prefix(images) {
+        Ok(rel) => rel
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .collect::<Vec<_>>()
+            .join("/"),
+        Err(_) => path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+    }
+}
+
+/// `--write-labels`: the label files and the review list.
+struct LabelWriter {
+    format: LabelFormat,
+    dir: PathBuf,
+    threshold: f64,
+    written: usize,
+    kept: usize,
+    /// Per photo: its name, uncertainty, published probability and label file.
+    review: Vec<(String, f64, Option<f64>, String)>,
+}
+
+impl LabelWriter {
+    fn new(format: &str, dir: &str, threshold: f64) -> Result<Self> {
+        let format = LabelFormat::from_str(format, true)
+            .map_err(|_| anyhow::anyhow!("--write-labels {format}: the format is yolo or voc"))?;
+        let dir = PathBuf::from(dir);
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        Ok(LabelWriter {
+            format,
+            dir,
+            threshold,
+            written: 0,
+            kept: 0,
+            review: Vec::new(),
+        })
+    }
+
+    /// Writes a photo's label file unless one exists, and notes how sure the detector was.
+    fn add(&mut self, name: &str, line: &PhotoLine) -> Result<()> {
+        let (w, h) = (line.width_px, line.height_px);
+        let balls: Vec<_> = line
+            .candidates
+            .iter()
+            .filter(|c| c.published)
+            .filter_map(|c| {
+                let circle = crate::detection::hough::Circle {
+                    center_px: [c.u_px, c.v_px],
+                    radius_px: c.radius_px,
+                    score: 1.0,
+                };
+                prelabel::circle_box(&circle, w, h)
+            })
+            .collect();
+        let rel = Path::new(name).with_extension(self.format.extension());
+        let path = self.dir.join(&rel);
+        if path.exists() {
+            self.kept += 1;
+        } else {
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent)
+                    .with_context(|| format!("creating {}", parent.display()))?;
+            }
+            let file_name = Path::new(name)
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            std::fs::write(&path, self.format.file(&file_name, w, h, &balls))
+                .with_context(|| format!("writing {}", path.display()))?;
+            self.written += 1;
+        }
+        let probabilities: Vec<f64> = line
+            .candidates
+            .iter()
+            .filter_map(|c| c.probability)
+            .collect();
+        let published = line
+            .candidates
+            .iter()
+            .find(|c| c.published)
+            .and_then(|c| c.probability);
+        self.review.push((
+            name.to_string(),
+            prelabel::uncertainty(&probabilities, self.threshold),
+            published,
+            rel.to_string_lossy().replace('\\', "/"),
+        ));
+        Ok(())
+    }
+
+    /// Writes `review.csv` (least certain first) and, for YOLO, `classes.txt` when absent.
+    fn finish(mut self) -> Result<()> {
+        self.review
+            .sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        let mut csv = String::from("photo,uncertainty,ball_probability,label_file\n");
+        for (name, u, p, file) in &self.review {
+            let p = p.map(|p| format!("{p:.4}")).unwrap_or_default();
+            csv += &format!("{},{u:.4},{p},{}\n", csv_field(name), csv_field(file));
+        }
+        let review = self.dir.join("review.csv");
+        std::fs::write(&review, csv).with_context(|| format!("writing {}", review.display()))?;
+        if self.format == LabelFormat::Yolo {
+            let classes = self.dir.join("classes.txt");
+            if !classes.exists() {
+                std::fs::write(&classes, "ball\n")
+                    .with_context(|| format!("writing {}", classes.display()))?;
+            }
+        }
+        eprintln!(
+            "wrote {} label files to {} ({} existing ones kept); {} lists the least certain photos first",
+            self.written,
+            self.dir.display(),
+            self.kept,
+            review.display()
+        );
+        Ok(())
+    }
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 /// Why a photo gave no line of candidates.
@@ -253,6 +407,10 @@ fn write_overlay(
     candidates: &[PhotoCandidate],
 ) -> Result<()> {
     let path = dir.join(overlay_name(name));
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+    }
     let png = crate::io::image_io::encode_png(&overlay(image, candidates))
         .with_context(|| format!("encoding {}", path.display()))?;
     std::fs::write(&path, png).with_context(|| format!("writing {}", path.display()))
@@ -267,5 +425,17 @@ mod tests {
         assert_eq!(overlay_name("a.png"), "a.png");
         assert_eq!(overlay_name("B.PNG"), "B.PNG");
         assert_eq!(overlay_name("a.jpg"), "a.jpg.png");
+    }
+
+    #[test]
+    fn photos_in_subfolders_keep_their_folders_in_their_names() {
+        let images = Path::new("/data/set");
+        assert_eq!(
+            relative_name(Path::new("/data/set/e1/r2/a.jpg"), images),
+            "e1/r2/a.jpg"
+        );
+        assert_eq!(relative_name(Path::new("/other/b.png"), images), "b.png");
+        assert_eq!(csv_field("a,b.jpg"), "\"a,b.jpg\"");
+        assert_eq!(csv_field("plain.jpg"), "plain.jpg");
     }
 }

@@ -52,10 +52,9 @@ pub fn input(patch: &RgbPatch) -> Vec<f32> {
         .chunks_exact(3)
         .map(|p| 0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2]))
         .collect();
-    let mut sorted = luma.clone();
-    sorted.sort_by(f32::total_cmp);
-    let k = ((sorted.len() - 1) as f64 * WHITE_QUANTILE).round() as usize;
-    let white = sorted[k].max(8.0);
+    let mut order = luma.clone();
+    let k = ((order.len() - 1) as f64 * WHITE_QUANTILE).round() as usize;
+    let white = order.select_nth_unstable_by(k, f32::total_cmp).1.max(8.0);
     luma.iter().map(|&v| (v / white).min(1.5) - 0.5).collect()
 }
 

@@ -49,21 +49,28 @@ pub struct DetectorArgs {
 }
 
 impl DetectorArgs {
-    /// The preset to run with `model`: a two-stage detector's file given with the default
-    /// `net` preset runs as `two-stage` (its candidate network needs it).
+    /// The preset to run with `model` (see [`DetectorPreset::with_model`]).
     pub fn preset_for(&self, model: Option<&Path>) -> DetectorPreset {
-        let detector_file = model
-            .filter(|p| p.extension().is_some_and(|e| e == "safetensors"))
-            .and_then(|p| std::fs::read(p).ok())
-            .is_some_and(|bytes| is_detector_file(&bytes));
-        match self.preset {
-            DetectorPreset::Net if detector_file => DetectorPreset::TwoStage,
-            p => p,
-        }
+        self.preset.with_model(model)
     }
 }
 
 impl DetectorPreset {
+    /// The preset to run with `model`: a two-stage detector's file given with the `net` or
+    /// `config` preset runs as `two-stage` (its candidate network needs it).
+    pub fn with_model(self, model: Option<&Path>) -> DetectorPreset {
+        let detector_file = model
+            .filter(|p| p.extension().is_some_and(|e| e == "safetensors"))
+            .and_then(|p| std::fs::read(p).ok())
+            .is_some_and(|bytes| is_detector_file(&bytes));
+        match self {
+            DetectorPreset::Net | DetectorPreset::Config if detector_file => {
+                DetectorPreset::TwoStage
+            }
+            p => p,
+        }
+    }
+
     /// The settings with this preset's proposer and classifier.
     pub fn apply(self, config: DetectorConfig) -> DetectorConfig {
         use crate::detection::detect::{ClassifierKind, Proposer};

@@ -3,7 +3,9 @@
 //! (observations and status out, the team's ball state in for validation, liveliness).
 
 use crate::agent::Agent;
-use crate::runtime::models::{ClassifierArgs, classifier, load_config, load_models};
+use crate::runtime::models::{
+    ClassifierArgs, DetectorPreset, classifier, load_config, load_models,
+};
 use crate::runtime::perceive::{FrameHook, Outbound, Summary, perceive, print_summary};
 use crate::runtime::ros_frames::RosTopics;
 use crate::runtime::source::{FrameSource, ImagesSource, McapSource, SourceSpec};
@@ -43,6 +45,11 @@ pub struct RunArgs {
     /// Pipeline settings (TOML: `[detector]`, `[noise]`, `[validation]`).
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// Which detector runs: `config` as the settings say (the MiRo's colour path unless
+    /// `--config` names another), or a preset in their place; a two-stage detector's file
+    /// given with `--model` runs as `two-stage`.
+    #[arg(long = "detector", value_enum, default_value_t = DetectorPreset::Config)]
+    pub detector: DetectorPreset,
     /// Zenoh endpoints to connect to (the server, or a router).
     #[arg(long)]
     pub connect: Vec<String>,
@@ -143,10 +150,12 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
         args.calibration.as_deref(),
         args.calibration_right.as_deref(),
     )?;
-    let config = load_config(args.config.as_deref())?;
-    let classifier = classifier(&config.detector, args.model.classifier.as_deref())?;
+    let mut config = load_config(args.config.as_deref())?;
+    let model = args.model.classifier.as_deref();
+    config.detector = args.detector.with_model(model).apply(config.detector);
+    let classifier = classifier(&config.detector, model)?;
     let mut agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;
-    if let Some(net) = crate::runtime::models::candidate_net(args.model.classifier.as_deref())? {
+    if let Some(net) = crate::runtime::models::candidate_net(model)? {
         agent = agent.with_candidate_net(net)?;
     }
     let stop = Arc::new(AtomicBool::new(false));
