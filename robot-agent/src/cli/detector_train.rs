@@ -45,26 +45,47 @@ pub fn load_photos(
     out
 }
 
+/// Draws the stage's batches on the bar and prints a line per epoch with the time spent
+/// and, from the pace so far, the time left in the stage (for logs, where no bar is drawn).
 fn report_progress<'a>(bar: &'a ProgressBar, what: &str) -> impl FnMut(Progress) + 'a {
     let what = what.to_string();
-    move |p| match p {
-        Progress::Batch { done, total } => {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
+    let started = std::time::Instant::now();
+    let (mut done, mut total) = (0usize, 0usize);
+    move |p| {
+        match p {
+        Progress::Batch { done: d, total: t } => {
+            (done, total) = (d, t);
+            bar.set_length(t as u64);
+            bar.set_position(d as u64);
         }
         Progress::Epoch(r) => bar.suspend(|| {
+            let spent_s = started.elapsed().as_secs_f64();
+            let left_s = if done > 0 {
+                spent_s * (total.saturating_sub(done)) as f64 / done as f64
+            } else {
+                0.0
+            };
             eprintln!(
-                "{what} epoch {:>3}: training loss {:.4}, held-out loss {}",
+                "{what} epoch {:>3}: training loss {:.4}, held-out loss {} [{} spent, about {} left]",
                 r.epoch,
                 r.train_loss,
                 if r.val_loss.is_nan() {
                     "– (nothing held out)".to_string()
                 } else {
                     format!("{:.4}", r.val_loss)
-                }
+                },
+                minutes(spent_s),
+                minutes(left_s)
             )
         }),
     }
+    }
+}
+
+/// A duration as `3m05s`.
+fn minutes(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    format!("{}m{:02}s", s / 60, s % 60)
 }
 
 /// The checker's samples of some photos: every ball (and moved copies), the candidate

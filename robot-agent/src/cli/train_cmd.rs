@@ -1,6 +1,6 @@
-//! `robot-agent train`: the colour-patch ball network (default) or the two-stage detector
-//! from photos with labelled ball boxes, or the HOG + SVM classifier from the same photos
-//! or from folders of ball and non-ball patches.
+//! `robot-agent train`: the two-stage detector (default, fine-tuned from the shipped one)
+//! or the colour-patch ball network from photos with labelled ball boxes, or the HOG + SVM
+//! classifier from the same photos or from folders of ball and non-ball patches.
 
 use crate::cli::detector_train::{DetectorTraining, train_detector};
 use crate::cli::labelled::{Item, LabelledArgs, LabelledFolder};
@@ -17,11 +17,11 @@ use std::time::Instant;
 /// Which classifier to train.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ModelKind {
-    /// The two-stage detector: the candidate network and the grey checker, one
-    /// `.safetensors` file for `run`, `detect` and `evaluate --model` (with `--detector
-    /// two-stage`).
+    /// The two-stage detector (the default): the candidate network and the grey checker,
+    /// one `.safetensors` file that `run`, `detect` and `evaluate` take with `--model`.
     Detector,
-    /// The colour-patch ball network (the default): any ball colour, refines the ball's circle (`.safetensors`).
+    /// The colour-patch ball network: any ball colour, refines the ball's circle
+    /// (`.safetensors`).
     Cnn,
     /// The HOG + SVM filter of the colour detector (`.json`).
     HogSvm,
@@ -29,7 +29,7 @@ pub enum ModelKind {
 
 #[derive(Debug, clap::Args)]
 pub struct TrainArgs {
-    /// The classifier to train. Default: the ball network from labelled photos, the
+    /// The model to train. Default: the two-stage detector from labelled photos, the
     /// HOG + SVM filter from patch folders.
     #[arg(long, value_enum)]
     pub model: Option<ModelKind>,
@@ -48,7 +48,9 @@ pub struct TrainArgs {
     /// Labelled photos (`--images DIR [--labels DIR]`, as `evaluate` takes them).
     #[command(flatten)]
     pub labelled: LabelledArgs,
-    /// Hold out a subfolder of `--images` (an event: repeatable) for the held-out score.
+    /// Hold out a subfolder of `--images` (an event: repeatable) for the held-out score;
+    /// `none` holds nothing out. Default: the event folder nearest a fifth of the photos
+    /// (with three events or more), else every fifth photo.
     #[arg(long = "hold-out", value_name = "FOLDER")]
     pub hold_out: Vec<String>,
     /// A separate folder of labelled photos (labels beside them) for the held-out score.
@@ -83,16 +85,18 @@ pub struct TrainArgs {
     /// and folds.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Epochs of the candidate network (detector).
-    #[arg(long, default_value_t = StageTrainConfig::candidates().epochs)]
-    pub candidate_epochs: usize,
-    /// Epochs of the grey checker (detector).
-    #[arg(long, default_value_t = StageTrainConfig::checker().epochs)]
-    pub checker_epochs: usize,
-    /// Fine-tune a detector file's two stages (`shipped`: the shipped detector) instead of
-    /// starting from random weights.
-    #[arg(long, value_name = "MODEL")]
-    pub from: Option<PathBuf>,
+    /// Epochs of the candidate network (detector). Default: 12 when fine-tuning, 30 from
+    /// random weights.
+    #[arg(long)]
+    pub candidate_epochs: Option<usize>,
+    /// Epochs of the grey checker (detector). Default: 8 when fine-tuning, 15 from random
+    /// weights.
+    #[arg(long)]
+    pub checker_epochs: Option<usize>,
+    /// The detector file whose two stages are fine-tuned (detector): `shipped` (the
+    /// default) for the shipped detector, `none` to start from random weights.
+    #[arg(long, value_name = "MODEL", default_value = "shipped")]
+    pub from: PathBuf,
     /// Where to write the model (`.safetensors` for the networks, JSON for HOG + SVM).
     #[arg(long)]
     pub out: PathBuf,
@@ -103,6 +107,10 @@ pub struct TrainArgs {
     #[arg(long)]
     pub json: Option<PathBuf>,
 }
+
+/// Epochs of each stage when fine-tuning a detector.
+const FINE_TUNE_CANDIDATE_EPOCHS: usize = 12;
+const FINE_TUNE_CHECKER_EPOCHS: usize = 8;
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
@@ -115,7 +123,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let kind = args.model.unwrap_or(if args.positives.is_some() {
         ModelKind::HogSvm
     } else {
-        ModelKind::Cnn
+        ModelKind::Detector
     });
     match kind {
         ModelKind::HogSvm => run_svm(args),
@@ -147,37 +155,138 @@ impl Split {
         Ok(Split { folder, val_folder })
     }
 
-    /// Training items, and the held-out folder with its items (the `--hold-out` folders'
-    /// photos, or the `--val` folder's).
-    fn items<'a>(
-        &'a self,
-        hold_out: &[String],
-    ) -> Result<(Vec<&'a Item>, &'a LabelledFolder, Vec<&'a Item>)> {
-        let (val_items, train_items): (Vec<&Item>, Vec<&Item>) = self
-            .folder
-            .items
-            .iter()
-            .partition(|i| held_out(i, hold_out));
-        for f in hold_out {
-            if !val_items
-                .iter()
-                .any(|i| held_out(i, std::slice::from_ref(f)))
-            {
-                bail!("--hold-out {f}: no photos in that folder of the --images folder");
-            }
+    /// Training items, and the held-out folder with its items: the `--hold-out` folders'
+    /// photos, or the `--val` folder's, or when neither is named a part chosen here (and
+    /// said); `--hold-out none` holds nothing out.
+    fn items<'a>(&'a self, hold_out: &[String]) -> Result<Parts<'a>> {
+        if let Some(v) = &self.val_folder {
+            return Ok(Parts {
+                train: self.folder.items.iter().collect(),
+                val_folder: v,
+                val: v.items.iter().collect(),
+                held_out: "the --val folder".to_string(),
+            });
         }
+        let nothing = hold_out.len() == 1 && hold_out[0] == "none";
+        let mut described = hold_out.join(", ");
+        let (val_items, train_items): (Vec<&Item>, Vec<&Item>) = if nothing {
+            described.clear();
+            (Vec::new(), self.folder.items.iter().collect())
+        } else if hold_out.is_empty() {
+            let choice = automatic_hold_out(&self.folder.items);
+            described = choice.describe(&self.folder.items);
+            eprintln!(
+                "nothing named to hold out: holding out {described}; name event folders with --hold-out \
+                 (or a folder with --val) to choose, --hold-out none to train on every photo"
+            );
+            let (mut val, mut train) = (Vec::new(), Vec::new());
+            for (k, i) in self.folder.items.iter().enumerate() {
+                if choice.holds(k, i) {
+                    val.push(i);
+                } else {
+                    train.push(i);
+                }
+            }
+            (val, train)
+        } else {
+            let split: (Vec<&Item>, Vec<&Item>) = self
+                .folder
+                .items
+                .iter()
+                .partition(|i| held_out(i, hold_out));
+            for f in hold_out {
+                if !split.0.iter().any(|i| held_out(i, std::slice::from_ref(f))) {
+                    bail!("--hold-out {f}: no photos in that folder of the --images folder");
+                }
+            }
+            split
+        };
         if train_items.is_empty() {
             bail!("every photo is held out: nothing is left to train on");
         }
-        Ok(match &self.val_folder {
-            Some(v) => (train_items, v, v.items.iter().collect()),
-            None => (train_items, &self.folder, val_items),
+        Ok(Parts {
+            train: train_items,
+            val_folder: &self.folder,
+            val: val_items,
+            held_out: described,
         })
     }
 }
 
+/// The photos to train on and those held out for the score.
+struct Parts<'a> {
+    train: Vec<&'a Item>,
+    val_folder: &'a LabelledFolder,
+    val: Vec<&'a Item>,
+    /// What was held out, for the file's recipe (empty: nothing).
+    held_out: String,
+}
+
+/// The held-out part chosen when none is named.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum AutoHoldOut {
+    /// A whole event: the top-level folder nearest a fifth of the photos (three events or
+    /// more).
+    Event(String),
+    /// Every fifth photo in path order (fewer events: the held-out photos then share
+    /// events with the training ones, so their score is optimistic).
+    EveryFifth,
+}
+
+/// The photos' top-level folder (empty at the top).
+fn event_of(item: &Item) -> &str {
+    item.folder.split('/').next().unwrap_or("")
+}
+
+fn automatic_hold_out(items: &[Item]) -> AutoHoldOut {
+    let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+    for i in items {
+        *counts.entry(event_of(i)).or_default() += 1;
+    }
+    let events: Vec<(&str, usize)> = counts.into_iter().filter(|(e, _)| !e.is_empty()).collect();
+    if events.len() < 3 {
+        return AutoHoldOut::EveryFifth;
+    }
+    let fifth = items.len() as f64 / 5.0;
+    events
+        .iter()
+        .min_by(|a, b| {
+            (a.1 as f64 - fifth)
+                .abs()
+                .total_cmp(&(b.1 as f64 - fifth).abs())
+                .then_with(|| b.0.cmp(a.0))
+        })
+        .map_or(AutoHoldOut::EveryFifth, |(e, _)| {
+            AutoHoldOut::Event((*e).to_string())
+        })
+}
+
+impl AutoHoldOut {
+    fn holds(&self, index: usize, item: &Item) -> bool {
+        match self {
+            AutoHoldOut::Event(e) => event_of(item) == e,
+            AutoHoldOut::EveryFifth => index % 5 == 4,
+        }
+    }
+
+    fn describe(&self, items: &[Item]) -> String {
+        let n = items
+            .iter()
+            .enumerate()
+            .filter(|(k, i)| self.holds(*k, i))
+            .count();
+        match self {
+            AutoHoldOut::Event(e) => format!("the event folder {e} ({n} photos)"),
+            AutoHoldOut::EveryFifth => format!(
+                "every fifth photo ({n} photos; they share events with the \
+                 training photos, so their score is optimistic)"
+            ),
+        }
+    }
+}
+
 /// The file's recipe: the data, the command, the seed.
-fn recipe(args: &TrainArgs, train_photos: usize) -> BTreeMap<String, String> {
+fn recipe(args: &TrainArgs, train_photos: usize, held_out: &str) -> BTreeMap<String, String> {
     let images = args
         .labelled
         .images
@@ -189,10 +298,10 @@ fn recipe(args: &TrainArgs, train_photos: usize) -> BTreeMap<String, String> {
         "data".to_string(),
         format!(
             "{images}: {train_photos} photos for training{}",
-            if args.hold_out.is_empty() {
+            if held_out.is_empty() {
                 String::new()
             } else {
-                format!(", held out: {}", args.hold_out.join(", "))
+                format!(", held out: {held_out}")
             }
         ),
     );
@@ -245,26 +354,40 @@ fn write_held_out(
 
 fn run_detector(args: TrainArgs) -> Result<()> {
     let split = Split::open(&args)?;
-    let (train_items, val_folder, val_items) = split.items(&args.hold_out)?;
+    let parts = split.items(&args.hold_out)?;
+    let (train_items, val_folder, val_items) = (&parts.train, parts.val_folder, &parts.val);
     if val_items.is_empty() {
         eprintln!(
-            "nothing held out (no --hold-out or --val): the last epochs are kept and no \
+            "nothing held out (--hold-out none): the last epochs are kept and no \
              held-out score is recorded"
         );
     }
-    let start = match &args.from {
-        None => None,
-        Some(p) => {
-            let bytes = if p.as_os_str() == "shipped" {
-                crate::builtin::DETECTOR.to_vec()
-            } else {
-                std::fs::read(p).with_context(|| format!("reading {}", p.display()))?
-            };
-            Some(
-                crate::detection::detector_train::stages_of(&bytes)
-                    .with_context(|| format!("{} is not a detector file", p.display()))?,
-            )
-        }
+    let p = &args.from;
+    let start = if p.as_os_str() == "none" {
+        None
+    } else {
+        let bytes = if p.as_os_str() == "shipped" {
+            crate::builtin::DETECTOR.to_vec()
+        } else {
+            std::fs::read(p).with_context(|| format!("reading {}", p.display()))?
+        };
+        Some(
+            crate::detection::detector_train::stages_of(&bytes)
+                .with_context(|| format!("{} is not a detector file", p.display()))?,
+        )
+    };
+    // Fine-tuning starts near a solution and needs fewer epochs.
+    let (candidate_epochs, checker_epochs) = match start {
+        Some(_) => (
+            args.candidate_epochs.unwrap_or(FINE_TUNE_CANDIDATE_EPOCHS),
+            args.checker_epochs.unwrap_or(FINE_TUNE_CHECKER_EPOCHS),
+        ),
+        None => (
+            args.candidate_epochs
+                .unwrap_or(StageTrainConfig::candidates().epochs),
+            args.checker_epochs
+                .unwrap_or(StageTrainConfig::checker().epochs),
+        ),
     };
     let stage = |base: StageTrainConfig, epochs: usize| StageTrainConfig {
         epochs,
@@ -274,15 +397,15 @@ fn run_detector(args: TrainArgs) -> Result<()> {
     let started = Instant::now();
     let out = train_detector(
         &split.folder,
-        &train_items,
-        (val_folder, &val_items),
+        train_items,
+        (val_folder, val_items),
         DetectorTraining {
-            candidates: stage(StageTrainConfig::candidates(), args.candidate_epochs),
-            checker: stage(StageTrainConfig::checker(), args.checker_epochs),
+            candidates: stage(StageTrainConfig::candidates(), candidate_epochs),
+            checker: stage(StageTrainConfig::checker(), checker_epochs),
             start: start.as_ref(),
             random_negatives: args.random_negatives,
             copies: args.copies,
-            metadata: recipe(&args, train_items.len()),
+            metadata: recipe(&args, train_items.len(), &parts.held_out),
         },
     )?;
     let mut file = out.file.clone();
@@ -314,7 +437,8 @@ fn run_detector(args: TrainArgs) -> Result<()> {
 
 fn run_net(args: TrainArgs) -> Result<()> {
     let split = Split::open(&args)?;
-    let (train_items, val_folder, val_items) = split.items(&args.hold_out)?;
+    let parts = split.items(&args.hold_out)?;
+    let (train_items, val_folder, val_items) = (&parts.train, parts.val_folder, &parts.val);
     let cfg = NetTrainConfig {
         epochs: args.epochs,
         batch: args.batch,
@@ -336,11 +460,11 @@ fn run_net(args: TrainArgs) -> Result<()> {
     let started = Instant::now();
     let out = train_on_photos(
         &split.folder,
-        &train_items,
-        (val_folder, &val_items),
+        train_items,
+        (val_folder, val_items),
         &cfg,
         &samples,
-        recipe(&args, train_items.len()),
+        recipe(&args, train_items.len(), &parts.held_out),
     )?;
     let mut file = out.trained.file.clone();
     if let Some(report) = &out.held_out {
@@ -386,4 +510,47 @@ fn run_svm(args: TrainArgs) -> Result<()> {
         bail!("give --positives and --negatives, or --images and --labels");
     }
     fit_and_write(&positives, &negatives, args.seed, &args.out, &mut progress)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn item(folder: &str, name: &str) -> Item {
+        Item {
+            image: PathBuf::from(format!("{folder}/{name}")),
+            label: None,
+            folder: folder.to_string(),
+        }
+    }
+
+    #[test]
+    fn a_whole_event_near_a_fifth_is_held_out_when_none_is_named() {
+        let mut items = Vec::new();
+        for (event, n) in [("e1", 40), ("e2", 22), ("e3", 30), ("e4/r1", 8)] {
+            for k in 0..n {
+                items.push(item(event, &format!("{k}.jpg")));
+            }
+        }
+        let choice = automatic_hold_out(&items);
+        assert_eq!(choice, AutoHoldOut::Event("e2".to_string()));
+        let held = items
+            .iter()
+            .enumerate()
+            .filter(|(k, i)| choice.holds(*k, i))
+            .count();
+        assert_eq!(held, 22);
+        assert!(choice.describe(&items).contains("e2 (22 photos)"));
+    }
+
+    #[test]
+    fn one_folder_holds_out_every_fifth_photo() {
+        let items: Vec<Item> = (0..23).map(|k| item("", &format!("{k}.jpg"))).collect();
+        let choice = automatic_hold_out(&items);
+        assert_eq!(choice, AutoHoldOut::EveryFifth);
+        let held: Vec<usize> = (0..items.len())
+            .filter(|&k| choice.holds(k, &items[k]))
+            .collect();
+        assert_eq!(held, [4, 9, 14, 19]);
+    }
 }
