@@ -35,12 +35,13 @@ struct Args {
     /// generated section is marked `<!-- evaluate-vision-patterned:begin -->` / `…:end -->`.
     #[arg(long, requires = "vision")]
     patterned_ball: bool,
-    /// With `--vision`: the agent's detector (`config`: the pipeline's defaults, the MiRo's
-    /// colour path; `two-stage`: the candidate network and the grey checker). Its generated
-    /// section is marked `<!-- evaluate-vision-two-stage:begin -->` / `…:end -->` (with
-    /// `--patterned-ball`: `evaluate-vision-patterned-two-stage`).
-    #[arg(long, value_enum, default_value_t = DetectorPreset::Config, requires = "vision")]
-    detector: DetectorPreset,
+    /// With `--vision`, the agent's detector (default `config`: the pipeline's defaults, the
+    /// MiRo's colour path; `two-stage`: the candidate network and the grey checker; its
+    /// generated section is then marked `<!-- evaluate-vision-two-stage:begin -->` /
+    /// `…:end -->`). With `--photos`, the detector of the photo commands (default `net`,
+    /// as `robot-agent detect` and `evaluate` run).
+    #[arg(long, value_enum)]
+    detector: Option<DetectorPreset>,
     /// With `--vision`: a model file of `robot-agent train` in place of the shipped one.
     #[arg(long, requires = "vision")]
     model: Option<PathBuf>,
@@ -198,6 +199,11 @@ fn doc_section(
     s
 }
 
+/// The agent's detector in the vision evaluation.
+fn vision_detector(args: &Args) -> DetectorPreset {
+    args.detector.unwrap_or(DetectorPreset::Config)
+}
+
 /// The command line that reproduces a run, for the generated sections.
 fn command(args: &Args, names: &[&str], seeds: u64) -> String {
     let mut cmd = String::from("cargo run --release -p eval --bin evaluate --");
@@ -207,8 +213,8 @@ fn command(args: &Args, names: &[&str], seeds: u64) -> String {
     if args.patterned_ball {
         cmd.push_str(" --patterned-ball");
     }
-    if args.detector != DetectorPreset::Config
-        && let Some(v) = args.detector.to_possible_value()
+    if vision_detector(args) != DetectorPreset::Config
+        && let Some(v) = vision_detector(args).to_possible_value()
     {
         cmd.push_str(&format!(" --detector {}", v.get_name()));
     }
@@ -234,7 +240,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     if args.patterned_ball {
         vcfg.camera.ball_look = sim::patterned_ball();
     }
-    vcfg.detector = args.detector;
+    vcfg.detector = vision_detector(args);
     vcfg.model = args.model.clone();
     let started = std::time::Instant::now();
     let results = evaluate_vision(&names, seeds, &sim::SimConfig::default(), &vcfg, args.jobs)?;
@@ -264,7 +270,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
             args.jobs,
             vcfg.latency_s * 1e3,
         );
-        let marker = vision_report::section_name(args.patterned_ball, args.detector);
+        let marker = vision_report::section_name(args.patterned_ball, vision_detector(args));
         let (begin, end) = (
             format!("<!-- {marker}:begin -->"),
             format!("<!-- {marker}:end -->"),
@@ -274,7 +280,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     }
     let plot = format!(
         "{}.png",
-        vision_report::section_name(args.patterned_ball, args.detector)
+        vision_report::section_name(args.patterned_ball, vision_detector(args))
             .replace("evaluate-vision", "vision_recall_by_radius")
             .replace('-', "_")
     );
@@ -294,7 +300,8 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         backgrounds: "tests/data/backgrounds/heldout".into(),
         real_balls: "tests/data/real-balls".into(),
     };
-    let detector = robot_agent::DetectorConfig::default();
+    let preset = args.detector.unwrap_or(DetectorPreset::Net);
+    let detector = preset.apply(robot_agent::DetectorConfig::default());
     let classifier = robot_agent::builtin::classifier(&detector)?;
     let min_probability = robot_agent::ValidationConfig::default().min_probability;
     let progress = tools::progress::Progress::new(0, "photos scored");
@@ -319,6 +326,9 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         if args.photo_seed != 2 {
             cmd.push_str(&format!(" --photo-seed {}", args.photo_seed));
         }
+        if let Some(v) = args.detector.and_then(|d| d.to_possible_value()) {
+            cmd.push_str(&format!(" --detector {}", v.get_name()));
+        }
         cmd.push_str(&format!(
             " --doc {} --plots {}",
             path.display(),
@@ -326,8 +336,10 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         ));
         let section = format!(
             "Produced by `{cmd}` ({} randomised photos per background kind, seed {}; the shipped \
-             detector and classifier, no camera model, `min_probability` {min_probability}).\n\n{text}",
-            args.photo_count, args.photo_seed,
+             `{}` detector, no camera model, `min_probability` {min_probability}).\n\n{text}",
+            args.photo_count,
+            args.photo_seed,
+            preset.to_possible_value().map_or(String::new(), |v| v.get_name().to_string()),
         );
         report::rewrite_section_between(
             path,
