@@ -339,7 +339,9 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
              `{}` detector, no camera model, `min_probability` {min_probability}).\n\n{text}",
             args.photo_count,
             args.photo_seed,
-            preset.to_possible_value().map_or(String::new(), |v| v.get_name().to_string()),
+            preset
+                .to_possible_value()
+                .map_or(String::new(), |v| v.get_name().to_string()),
         );
         report::rewrite_section_between(
             path,
