@@ -15,6 +15,7 @@ use robot_agent::{CandidateClassifier, Detector, DetectorConfig, NoClock, detect
 use serde::Serialize;
 use sim::Frame;
 use sim::{Background, PhotoProfile, synth_photo};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tools::photo_set::{encode, rendered_views};
@@ -43,6 +44,9 @@ pub struct PhotoEvalConfig {
     pub backgrounds: PathBuf,
     /// Real photos with labelled balls (Pascal VOC labels in `labels/`).
     pub real_balls: PathBuf,
+    /// What the randomised photos are drawn from (the `heldout` profile, or some of its
+    /// ball designs).
+    pub profile: PhotoProfile,
 }
 
 fn frame_of(image: RgbImage) -> Frame {
@@ -51,6 +55,35 @@ fn frame_of(image: RgbImage) -> Frame {
         height: image.height(),
         rgb: image.data().to_vec(),
     }
+}
+
+/// A photo's candidates (circle and probability) and the detector's time on it.
+type Detected = (Vec<(robot_agent::Circle, Option<f64>)>, f64);
+
+/// Runs the detector on one photo.
+fn detect(
+    image: &RgbImage,
+    min_probability: f64,
+    detector: &Detector,
+    classifier: &dyn CandidateClassifier,
+) -> Result<Detected> {
+    let started = Instant::now();
+    let candidates = detect_photo(
+        detector,
+        classifier,
+        min_probability,
+        image,
+        None,
+        &mut NoClock,
+    )?;
+    let took_ms = started.elapsed().as_secs_f64() * 1e3;
+    Ok((
+        candidates
+            .iter()
+            .map(|c| (c.circle, c.probability))
+            .collect(),
+        took_ms,
+    ))
 }
 
 /// Scores one photo into `eval`, every candidate proposed with it.
@@ -63,21 +96,8 @@ fn score(
     detector: &Detector,
     classifier: &dyn CandidateClassifier,
 ) -> Result<()> {
-    let started = Instant::now();
-    let candidates = detect_photo(
-        detector,
-        classifier,
-        eval.min_probability(),
-        image,
-        None,
-        &mut NoClock,
-    )?;
-    let took_ms = started.elapsed().as_secs_f64() * 1e3;
+    let (candidates, took_ms) = detect(image, eval.min_probability(), detector, classifier)?;
     ms.push(took_ms);
-    let candidates: Vec<_> = candidates
-        .iter()
-        .map(|c| (c.circle, c.probability))
-        .collect();
     eval.add_stages(name, balls, &candidates, took_ms);
     Ok(())
 }
@@ -105,13 +125,15 @@ pub fn evaluate_photos(
         pictures.push(frame_of(robot_agent::load_rgb(p)?));
     }
     let renders = rendered_views(24, cfg.seed)?;
-    let profile = PhotoProfile::heldout();
+    let profile = &cfg.profile;
     let mut out = Vec::new();
     let kinds: [(&str, Option<&[Frame]>); 3] = [
         ("held-out carpets", None),
         ("held-out rendered pitch", Some(&renders)),
         ("held-out real backgrounds", Some(&pictures)),
     ];
+    // The photos with a ball again, by the ball's design, over every background.
+    let mut designs: BTreeMap<&'static str, (LabelEval, Vec<f64>)> = BTreeMap::new();
     progress.add_work(kinds.len() as u64 * cfg.count);
     for (name, frames) in kinds {
         let (mut eval, mut ms) = (LabelEval::new(min_probability), Vec::new());
@@ -120,7 +142,7 @@ pub fn evaluate_photos(
                 None => Background::Carpet,
                 Some(f) => Background::Picture(&f[i as usize % f.len()]),
             };
-            let photo = synth_photo(&profile, background, cfg.seed, i);
+            let photo = synth_photo(profile, background, cfg.seed, i);
             // Through the file format, so JPEG artefacts are the real codec's.
             let (bytes, _) = encode(&photo)?;
             let image = robot_agent::decode_rgb(&bytes)?;
@@ -134,21 +156,30 @@ pub fn evaluate_photos(
                     y_max_px: b.box_px[3],
                 })
                 .collect();
-            score(
-                &mut eval,
-                &mut ms,
-                &format!("{i:05}"),
-                &image,
-                &balls,
-                &detector,
-                classifier,
-            )?;
+            let (candidates, took_ms) = detect(&image, min_probability, &detector, classifier)?;
+            let photo_name = format!("{name} {i:05}");
+            ms.push(took_ms);
+            eval.add_stages(&photo_name, &balls, &candidates, took_ms);
+            if let Some(b) = photo.balls.first() {
+                let (e, m) = designs
+                    .entry(b.design.name())
+                    .or_insert_with(|| (LabelEval::new(min_probability), Vec::new()));
+                m.push(took_ms);
+                e.add_stages(&photo_name, &balls, &candidates, took_ms);
+            }
             progress.inc(name);
         }
         out.push(PhotoSetResult {
             name: name.to_string(),
             source: "simulated",
             report: finish(&eval, &ms),
+        });
+    }
+    for (design, (eval, ms)) in &designs {
+        out.push(PhotoSetResult {
+            name: format!("held-out, {design} balls"),
+            source: "simulated",
+            report: finish(eval, ms),
         });
     }
     // Real photos with labelled balls.

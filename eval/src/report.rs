@@ -245,7 +245,9 @@ pub fn rewrite_section_between(
     section: &str,
 ) -> anyhow::Result<()> {
     let old = std::fs::read_to_string(path).unwrap_or_default();
-    let block = format!("{begin}\n{section}{end}");
+    // The end marker on a line of its own, even after a table.
+    let newline = if section.ends_with('\n') { "" } else { "\n" };
+    let block = format!("{begin}\n{section}{newline}{end}");
     let new = match (old.find(begin), old.find(end)) {
         (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + end.len()..]),
         _ => format!("{old}\n{block}\n"),

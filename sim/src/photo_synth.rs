@@ -1,15 +1,19 @@
 //! Randomised labelled photos for training and testing a ball detector far beyond the
-//! renderer's own look: a shaded ball (any orange, plain or with white patches, a
-//! highlight, partly hidden) on a procedural carpet or on a given background (a real photo,
-//! a rendered pitch frame), with look-alikes beside it, then a cheap camera's faults
+//! renderer's own look: a shaded ball (one of several [`BallDesign`]s: plain, orange with
+//! white patches, the classic black-and-white football, white with black panels, a modern
+//! white ball with coloured bands, a yellow ball with dark lines; a highlight, partly
+//! hidden) on a procedural carpet or on a given background (a real photo, a rendered pitch
+//! frame), with look-alikes beside it, then a cheap camera's faults
 //! ([`crate::camera_effects`]): white balance, exposure, gamma, defocus, motion blur and
 //! noise. JPEG artefacts are the writer's part (the caller encodes at
 //! [`SynthPhoto::jpeg_quality`]).
 //!
 //! Two [`PhotoProfile`]s are defined. `train` is what a classifier may learn from;
 //! `heldout` draws from other ranges (a striped carpet texture, stronger colour casts,
-//! heavier noise and blur, other image sizes, other ball hues), so a score on it says how
-//! the detector does on pictures unlike anything it was tuned or trained on.
+//! heavier noise and blur, other image sizes, other ball hues, another mix of designs), so
+//! a score on it says how the detector does on pictures unlike anything it was tuned or
+//! trained on. [`PhotoProfile::with_designs`] restricts either to some designs, so a whole
+//! kind of ball can be held out (train on every design but `classic`, test on `classic`).
 
 use crate::camera_effects::{ToneCurve, add_noise, box_blur, crop_resize, motion_blur};
 use crate::render_scene::{Frame, hsv_to_rgb};
@@ -24,6 +28,61 @@ pub enum CarpetTexture {
     Stripes,
 }
 
+/// How a ball is painted; each photo's ball draws one from its profile's weighted
+/// [`PhotoProfile::designs`]. Every design is shaded, rimmed, shadowed and occluded alike.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum BallDesign {
+    /// One colour all over: a hue, saturation and value of the profile's ranges, or (at the
+    /// profile's [`PhotoProfile::plain_neutral_chance`]) near-white or near-black.
+    Plain,
+    /// The profile's coloured ball with twelve round white patches (at an icosahedron's
+    /// vertices).
+    Patches,
+    /// The classic football: a white body with twelve black pentagons, sometimes thin dark
+    /// seams between its white hexagons.
+    Classic,
+    /// A white ball with four or six large black panels of wavy outline (like RoboCup
+    /// humanoid-league balls).
+    WhiteBlackPanels,
+    /// A modern match ball: white with two or three curved bands in one or two saturated
+    /// colours, sometimes outlined dark.
+    Modern,
+    /// A yellow ball with darker yellow panels and thin dark curved lines (like the RoboCup
+    /// middle-size league's yellow FIFA ball).
+    Yellow,
+}
+
+impl BallDesign {
+    /// Every design, in the order of their names' listing.
+    pub const ALL: [BallDesign; 6] = [
+        BallDesign::Plain,
+        BallDesign::Patches,
+        BallDesign::Classic,
+        BallDesign::WhiteBlackPanels,
+        BallDesign::Modern,
+        BallDesign::Yellow,
+    ];
+
+    /// The design's name, as the command line and the manifests spell it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            BallDesign::Plain => "plain",
+            BallDesign::Patches => "patches",
+            BallDesign::Classic => "classic",
+            BallDesign::WhiteBlackPanels => "white-black-panels",
+            BallDesign::Modern => "modern",
+            BallDesign::Yellow => "yellow",
+        }
+    }
+
+    /// The design called `name` (as [`BallDesign::name`] spells it; case and surrounding
+    /// blanks are ignored, `_` stands for `-`).
+    pub fn named(name: &str) -> Option<Self> {
+        let wanted = name.trim().to_ascii_lowercase().replace('_', "-");
+        Self::ALL.into_iter().find(|d| d.name() == wanted)
+    }
+}
+
 /// The ranges every random choice is drawn from.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PhotoProfile {
@@ -34,12 +93,17 @@ pub struct PhotoProfile {
     pub ball_chance: f64,
     /// Ball radius in output pixels, drawn log-uniformly.
     pub radius_px: [f64; 2],
-    /// The ball's hue (degrees), saturation and value.
+    /// The coloured ball's hue (degrees), saturation and value ([`BallDesign::Plain`] and
+    /// [`BallDesign::Patches`]; the other designs have their own colours).
     pub hue_deg: [f64; 2],
     pub saturation: [f64; 2],
     pub value: [f64; 2],
-    /// Share of balls with white patches.
-    pub patches_chance: f64,
+    /// The ball designs drawn from, with their relative weights (one drawn per ball;
+    /// weights need not add up to 1; no positive weight paints every ball plain).
+    pub designs: Vec<(BallDesign, f64)>,
+    /// Share of [`BallDesign::Plain`] balls painted near-white or near-black (half each)
+    /// instead of the profile's hue.
+    pub plain_neutral_chance: f64,
     /// Share of balls partly hidden (up to 40 % of the disc).
     pub occlusion_chance: f64,
     /// Look-alikes per photo (orange bars, pale-orange skin-like blobs, white discs).
@@ -75,7 +139,17 @@ impl PhotoProfile {
             hue_deg: [8.0, 34.0],
             saturation: [0.55, 1.0],
             value: [0.6, 1.0],
-            patches_chance: 0.2,
+            // Coloured balls (plain or patched) are half of the balls, as the orange ball is
+            // still the commonest; every other design is 10–15 % of them.
+            designs: vec![
+                (BallDesign::Plain, 0.35),
+                (BallDesign::Patches, 0.15),
+                (BallDesign::Classic, 0.15),
+                (BallDesign::WhiteBlackPanels, 0.1),
+                (BallDesign::Modern, 0.1),
+                (BallDesign::Yellow, 0.15),
+            ],
+            plain_neutral_chance: 0.15,
             occlusion_chance: 0.15,
             distractors: [0, 3],
             texture: CarpetTexture::Blotches,
@@ -103,7 +177,17 @@ impl PhotoProfile {
             hue_deg: [5.0, 38.0],
             saturation: [0.5, 1.0],
             value: [0.5, 1.0],
-            patches_chance: 0.25,
+            // Another mix: more patched and classic balls, more near-white and near-black
+            // plain ones.
+            designs: vec![
+                (BallDesign::Plain, 0.3),
+                (BallDesign::Patches, 0.2),
+                (BallDesign::Classic, 0.2),
+                (BallDesign::WhiteBlackPanels, 0.1),
+                (BallDesign::Modern, 0.1),
+                (BallDesign::Yellow, 0.1),
+            ],
+            plain_neutral_chance: 0.2,
             occlusion_chance: 0.2,
             distractors: [0, 4],
             texture: CarpetTexture::Stripes,
@@ -128,14 +212,82 @@ impl PhotoProfile {
             _ => None,
         }
     }
+
+    /// This profile drawing only `designs`, each at its weight here (a design this profile
+    /// gives no positive weight gets the mean of its positive weights, or 1 when there are
+    /// none); repeats count once. An empty list keeps the profile's designs.
+    pub fn with_designs(&self, designs: &[BallDesign]) -> PhotoProfile {
+        if designs.is_empty() {
+            return self.clone();
+        }
+        let positive: Vec<f64> = self
+            .designs
+            .iter()
+            .map(|&(_, w)| w)
+            .filter(|&w| w > 0.0)
+            .collect();
+        let mean = if positive.is_empty() {
+            1.0
+        } else {
+            positive.iter().sum::<f64>() / positive.len() as f64
+        };
+        let mut chosen: Vec<(BallDesign, f64)> = Vec::new();
+        for &d in designs {
+            if chosen.iter().any(|&(c, _)| c == d) {
+                continue;
+            }
+            let w = self
+                .designs
+                .iter()
+                .filter(|&&(c, w)| c == d && w > 0.0)
+                .map(|&(_, w)| w)
+                .sum::<f64>();
+            chosen.push((d, if w > 0.0 { w } else { mean }));
+        }
+        PhotoProfile {
+            designs: chosen,
+            ..self.clone()
+        }
+    }
+
+    /// The designs drawn with a positive weight, in the profile's order.
+    pub fn drawn_designs(&self) -> Vec<BallDesign> {
+        let mut out: Vec<BallDesign> = Vec::new();
+        for &(d, w) in &self.designs {
+            if w > 0.0 && !out.contains(&d) {
+                out.push(d);
+            }
+        }
+        out
+    }
+
+    /// One design drawn by weight ([`BallDesign::Plain`] when no weight is positive).
+    fn draw_design(&self, rng: &mut Rng) -> BallDesign {
+        let total: f64 = self.designs.iter().map(|&(_, w)| w.max(0.0)).sum();
+        let mut left = rng.range(0.0, total.max(0.0));
+        let mut last = BallDesign::Plain;
+        for &(d, w) in &self.designs {
+            if w <= 0.0 {
+                continue;
+            }
+            if left < w {
+                return d;
+            }
+            left -= w;
+            last = d;
+        }
+        last
+    }
 }
 
 /// A labelled ball: its box in output pixels, `[x_min, y_min, x_max, y_max]` (the disc,
-/// clipped to the photo), and its radius.
+/// clipped to the photo), its radius and how it is painted.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BallLabel {
     pub box_px: [f64; 4],
     pub radius_px: f64,
+    /// How the ball is painted.
+    pub design: BallDesign,
 }
 
 /// One randomised photo.
@@ -184,14 +336,8 @@ pub fn synth_photo(
         let r = rng.range(lo, hi).exp().min(0.45 * f64::from(w.min(h)));
         let cx = rng.range(0.0, f64::from(w - 1));
         let cy = rng.range(0.0, f64::from(h - 1));
-        let look = crate::photo_shapes::BallPaint {
-            albedo: hsv_to_rgb(
-                draw(&mut rng, profile.hue_deg),
-                draw(&mut rng, profile.saturation),
-                draw(&mut rng, profile.value),
-            ),
-            patches: rng.chance(profile.patches_chance),
-        };
+        let design = profile.draw_design(&mut rng);
+        let look = crate::photo_shapes::BallPaint::draw(design, profile, &mut rng);
         crate::photo_shapes::ball(&mut frame, [cx, cy], r, &look, &mut rng);
         if rng.chance(profile.occlusion_chance) {
             crate::photo_shapes::occluder(&mut frame, [cx, cy], r, &mut rng);
@@ -205,6 +351,7 @@ pub fn synth_photo(
                 clip(cy + r, h),
             ],
             radius_px: r,
+            design,
         });
     }
     camera(&mut frame, profile, &mut rng);

@@ -1,7 +1,7 @@
 //! A folder of randomised labelled photos ([`sim::photo_synth`]) as a user's own data set
 //! would be laid out: `images/NNNNN.jpg` and YOLO labels `labels/NNNNN.txt` with a
 //! `labels/classes.txt` naming class 0 `ball`, plus a `manifest.json` saying how it was
-//! made. `robot-agent evaluate` and `robot-agent train` read it like any other.
+//! made (with the ball designs drawn from and each photo's balls' designs). `robot-agent evaluate` and `robot-agent train` read it like any other.
 //!
 //! Backgrounds go round in turn: a procedural carpet, a rendered view of the simulated
 //! pitch (ball removed; fisheye frames of a simulated match) and, when given, a real photo.
@@ -54,7 +54,23 @@ struct Manifest<'a> {
     backgrounds: Vec<String>,
     rendered_views: usize,
     kinds: Vec<BackgroundKind>,
+    /// The ball designs drawn from, with their weights.
+    designs: Vec<ManifestDesign>,
+    /// Each photo's balls' designs (none for a photo without a ball).
+    photos: Vec<ManifestPhoto>,
     note: &'static str,
+}
+
+#[derive(Debug, Serialize)]
+struct ManifestDesign {
+    design: &'static str,
+    weight: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct ManifestPhoto {
+    image: String,
+    ball_designs: Vec<&'static str>,
 }
 
 /// Rendered views of the simulated pitch with no ball: `n` frames from a simulated match.
@@ -152,6 +168,7 @@ pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> 
         spec.kinds.clone()
     };
     let mut with_ball = 0;
+    let mut photos = Vec::new();
     for i in 0..spec.count {
         let k = (i as usize) / kinds.len();
         let background = match kinds[(i as usize) % kinds.len()] {
@@ -162,7 +179,12 @@ pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> 
         let photo = synth_photo(&spec.profile, background, spec.seed, i);
         let (bytes, ext) = encode(&photo)?;
         let name = format!("{i:05}");
-        std::fs::write(images.join(format!("{name}.{ext}")), bytes)?;
+        let image = format!("{name}.{ext}");
+        std::fs::write(images.join(&image), bytes)?;
+        photos.push(ManifestPhoto {
+            image: format!("images/{image}"),
+            ball_designs: photo.balls.iter().map(|b| b.design.name()).collect(),
+        });
         let mut text = String::new();
         for b in &photo.balls {
             let [x0, y0, x1, y1] = b.box_px;
@@ -192,6 +214,17 @@ pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> 
             .collect(),
         rendered_views: spec.rendered,
         kinds: kinds.clone(),
+        designs: spec
+            .profile
+            .designs
+            .iter()
+            .filter(|&&(_, w)| w > 0.0)
+            .map(|&(d, weight)| ManifestDesign {
+                design: d.name(),
+                weight,
+            })
+            .collect(),
+        photos,
         note: "simulated: balls painted by sim::photo_synth; backgrounds are carpets, renders \
                and the listed photos",
     };
@@ -200,4 +233,55 @@ pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> 
         serde_json::to_string_pretty(&manifest)?,
     )?;
     Ok(with_ball)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+    use sim::BallDesign;
+
+    #[test]
+    fn the_manifest_names_each_photos_ball_design() {
+        let dir = tempfile::tempdir().unwrap();
+        let designs = [BallDesign::Classic, BallDesign::Yellow];
+        let spec = PhotoSetSpec {
+            profile: PhotoProfile {
+                sizes_px: &[(64, 48)],
+                ..PhotoProfile::train().with_designs(&designs)
+            },
+            count: 12,
+            seed: 4,
+            backgrounds: Vec::new(),
+            rendered: 0,
+            kinds: vec![BackgroundKind::Carpet],
+        };
+        let with_ball = write_photo_set(&spec, dir.path(), &Progress::hidden(12)).unwrap();
+        let text = std::fs::read_to_string(dir.path().join("manifest.json")).unwrap();
+        let manifest: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let drawn: Vec<&str> = manifest["designs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|d| d["design"].as_str().unwrap())
+            .collect();
+        assert_eq!(drawn, ["classic", "yellow"]);
+        let photos = manifest["photos"].as_array().unwrap();
+        assert_eq!(photos.len(), 12);
+        let mut balls = 0;
+        for (i, p) in photos.iter().enumerate() {
+            let image = p["image"].as_str().unwrap();
+            assert!(dir.path().join(image).is_file(), "{image}");
+            assert!(image.starts_with(&format!("images/{i:05}.")), "{image}");
+            let labels = std::fs::read_to_string(dir.path().join(format!("labels/{i:05}.txt")));
+            let designs = p["ball_designs"].as_array().unwrap();
+            assert_eq!(designs.len(), labels.unwrap().lines().count());
+            for d in designs {
+                assert!(drawn.contains(&d.as_str().unwrap()), "{d}");
+            }
+            balls += usize::from(!designs.is_empty());
+        }
+        assert_eq!(balls, with_ball);
+    }
 }

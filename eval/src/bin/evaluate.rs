@@ -299,6 +299,7 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         seed: args.photo_seed,
         backgrounds: "tests/data/backgrounds/heldout".into(),
         real_balls: "tests/data/real-balls".into(),
+        profile: sim::PhotoProfile::heldout(),
     };
     let preset = args.detector.unwrap_or(DetectorPreset::Net);
     let detector = preset.apply(robot_agent::DetectorConfig::default());

@@ -1,7 +1,9 @@
 //! `synth_photos`: a folder of randomised labelled photos of a ball (YOLO labels), for
 //! `robot-agent evaluate` and `robot-agent train`. The `train` profile is for training;
 //! the `heldout` profile draws from ranges the classifier never saw (see
-//! `sim::photo_synth`).
+//! `sim::photo_synth`). `--designs` restricts the ball designs, so a whole kind of ball can
+//! be held out: train on `--designs plain,patches,white-black-panels,modern,yellow`, test on
+//! `--designs classic`.
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -29,6 +31,10 @@ struct Args {
     /// available).
     #[arg(long, value_delimiter = ',')]
     kinds: Vec<tools::photo_set::BackgroundKind>,
+    /// Ball designs to draw, at the profile's weights: plain, patches, classic,
+    /// white-black-panels, modern, yellow (default: every design).
+    #[arg(long, value_delimiter = ',')]
+    designs: Vec<String>,
     /// The folder to write (`images/`, `labels/`, `manifest.json`).
     #[arg(long)]
     out: PathBuf,
@@ -53,12 +59,28 @@ fn image_files(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
+/// The designs called `names` (none: an empty list, every design).
+fn designs(names: &[String]) -> anyhow::Result<Vec<sim::BallDesign>> {
+    names
+        .iter()
+        .map(|n| {
+            sim::BallDesign::named(n).ok_or_else(|| {
+                let valid: Vec<&str> = sim::BallDesign::ALL.iter().map(|d| d.name()).collect();
+                anyhow::anyhow!(
+                    "unknown ball design {n:?}: use one or more of {}",
+                    valid.join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
 fn run(args: Args) -> anyhow::Result<()> {
     let Some(profile) = sim::PhotoProfile::named(&args.profile) else {
         anyhow::bail!("unknown profile {:?}: use train or heldout", args.profile);
     };
     let spec = PhotoSetSpec {
-        profile,
+        profile: profile.with_designs(&designs(&args.designs)?),
         count: args.count,
         seed: args.seed,
         backgrounds: image_files(&args.backgrounds)?,
