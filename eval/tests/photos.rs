@@ -83,6 +83,7 @@ fn a_written_photo_set_reads_back_as_labelled_photos() {
         count: 9,
         seed: 3,
         backgrounds: vec![data("backgrounds/train").join("home.jpg")],
+        erase_class: None,
         rendered: 2,
         kinds: Vec::new(),
     };

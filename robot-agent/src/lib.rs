@@ -70,7 +70,9 @@ pub use detection::svm::Model as SvmModel;
 pub use detection::train::miners as training_miners;
 pub use image::RgbImage;
 pub use image::gray::GrayImage;
-pub use io::image_io::{decode_gray, decode_rgb, encode_png, image_files, load_rgb};
+pub use io::image_io::{
+    decode_gray, decode_rgb, encode_png, image_files, image_files_recursive, load_rgb,
+};
 pub use io::ros_msg;
 #[cfg(any(test, feature = "test-support"))]
 pub use io::ros_msg_fixtures;

@@ -72,6 +72,7 @@ pub use chessboard::{Chessboard, calibration_views, render_chessboard};
 pub use head::default_head;
 pub use latency::LatencyProfile;
 pub use lens::LensModel;
+pub use photo_shapes::erase_box;
 pub use photo_synth::{Background, BallDesign, PhotoProfile, SynthPhoto, synth_photo};
 pub use render::{CameraRig, render_robot_cameras};
 pub use render_scene::{BallLook, BallPattern, BallTruth, Frame, Lighting, RobotBody, Scene};

@@ -740,3 +740,51 @@ pub fn distractor(frame: &mut Frame, profile: &PhotoProfile, rng: &mut Rng) {
         }
     }
 }
+
+/// Paints over a box of a photo (`[x_min, y_min, x_max, y_max]`, pixels, widened by a
+/// fifth of its size and 2 px): each pixel inside becomes a blend of the pixels just
+/// outside the box on its row and its column, weighted by nearness, so a real ball in a
+/// background photo is replaced by its surroundings before a painted one is put in.
+pub fn erase_box(frame: &mut Frame, box_px: [f64; 4]) {
+    let (w, h) = (frame.width as i64, frame.height as i64);
+    if w < 3 || h < 3 {
+        return;
+    }
+    let [x0, y0, x1, y1] = box_px;
+    let (mx, my) = (0.2 * (x1 - x0) + 2.0, 0.2 * (y1 - y0) + 2.0);
+    // The first and last rows and columns kept: the border the fill is made from.
+    let left = ((x0 - mx).floor() as i64).clamp(0, w - 1);
+    let right = ((x1 + mx).ceil() as i64).clamp(0, w - 1);
+    let top = ((y0 - my).floor() as i64).clamp(0, h - 1);
+    let bottom = ((y1 + my).ceil() as i64).clamp(0, h - 1);
+    if right - left < 2 || bottom - top < 2 {
+        return;
+    }
+    let at = |f: &Frame, x: i64, y: i64| {
+        let i = 3 * (y as usize * f.width as usize + x as usize);
+        [
+            f64::from(f.rgb[i]),
+            f64::from(f.rgb[i + 1]),
+            f64::from(f.rgb[i + 2]),
+        ]
+    };
+    let source = frame.clone();
+    for y in top + 1..bottom {
+        for x in left + 1..right {
+            let (l, r) = (at(&source, left, y), at(&source, right, y));
+            let (t, b) = (at(&source, x, top), at(&source, x, bottom));
+            let (dl, dr) = ((x - left) as f64, (right - x) as f64);
+            let (dt, db) = ((y - top) as f64, (bottom - y) as f64);
+            // Each border pixel weighs by the inverse of its distance.
+            let weights = [1.0 / dl, 1.0 / dr, 1.0 / dt, 1.0 / db];
+            let sum: f64 = weights.iter().sum();
+            let i = 3 * (y as usize * frame.width as usize + x as usize);
+            for c in 0..3 {
+                let v =
+                    (weights[0] * l[c] + weights[1] * r[c] + weights[2] * t[c] + weights[3] * b[c])
+                        / sum;
+                frame.rgb[i + c] = v.round().clamp(0.0, 255.0) as u8;
+            }
+        }
+    }
+}

@@ -345,3 +345,36 @@ fn designs_have_names_and_weights() {
     let photo = synth_photo(&none, Background::Carpet, 1, 0);
     assert_eq!(photo.balls[0].design, BallDesign::Plain);
 }
+
+#[test]
+fn an_erased_box_takes_the_colour_around_it_and_nothing_else_changes() {
+    let (w, h) = (80u32, 60u32);
+    let mut frame = Frame {
+        width: w,
+        height: h,
+        rgb: [40u8, 140, 50].repeat((w * h) as usize),
+    };
+    // A red disc of radius 8 at (40, 30): a real ball in a background photo.
+    for y in 0..h {
+        for x in 0..w {
+            if (f64::from(x) - 40.0).hypot(f64::from(y) - 30.0) < 8.0 {
+                let i = 3 * (y * w + x) as usize;
+                frame.rgb[i..i + 3].copy_from_slice(&[220, 30, 20]);
+            }
+        }
+    }
+    let mut erased = frame.clone();
+    crate::photo_shapes::erase_box(&mut erased, [32.0, 22.0, 48.0, 38.0]);
+    // The disc is gone: the whole photo is the floor again.
+    assert!(erased.rgb.chunks_exact(3).all(|p| p == [40, 140, 50]));
+    // A box past the photo's corner is clipped; pixels beyond its border keep theirs.
+    let mut corner = frame.clone();
+    crate::photo_shapes::erase_box(&mut corner, [-10.0, -10.0, 5.0, 5.0]);
+    crate::photo_shapes::erase_box(&mut corner, [70.0, 50.0, 95.0, 70.0]);
+    for y in 12..48 {
+        for x in 12..68 {
+            let i = 3 * (y * w + x) as usize;
+            assert_eq!(corner.rgb[i..i + 3], frame.rgb[i..i + 3], "({x}, {y})");
+        }
+    }
+}

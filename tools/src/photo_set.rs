@@ -26,6 +26,10 @@ pub struct PhotoSetSpec {
     pub seed: u64,
     /// Real photos to draw balls on (any size), in the rotation beside carpets and renders.
     pub backgrounds: Vec<PathBuf>,
+    /// A YOLO label file beside a background photo marks balls of this class, which are
+    /// painted over ([`sim::erase_box`]) before a ball is painted in (`None`: labels are
+    /// not looked for).
+    pub erase_class: Option<u32>,
     /// Rendered pitch views in the rotation.
     pub rendered: usize,
     /// Which kinds of background go round (empty: every kind there is).
@@ -108,6 +112,34 @@ fn frame_of(image: robot_agent::RgbImage) -> Frame {
     }
 }
 
+/// The boxes of class `class` in the YOLO label file beside a background photo (none
+/// when there is no such file).
+fn background_balls(
+    photo: &Path,
+    class: u32,
+    width_px: u32,
+    height_px: u32,
+) -> Result<Vec<BallBox>> {
+    let label = photo.with_extension("txt");
+    if !label.is_file() {
+        return Ok(Vec::new());
+    }
+    let text =
+        std::fs::read_to_string(&label).with_context(|| format!("reading {}", label.display()))?;
+    let ids = robot_agent::labels::yolo::BallClassIds {
+        ids: vec![class],
+        known_classes: None,
+    };
+    let labels = robot_agent::labels::yolo::parse_yolo(
+        &text,
+        &label.display().to_string(),
+        width_px,
+        height_px,
+        &ids,
+    )?;
+    Ok(labels.balls)
+}
+
 /// Encodes a photo as JPEG at its quality, or PNG without one; returns the file's extension.
 pub fn encode(photo: &SynthPhoto) -> Result<(Vec<u8>, &'static str)> {
     let f = &photo.frame;
@@ -139,10 +171,23 @@ pub fn write_photo_set(spec: &PhotoSetSpec, out: &Path, progress: &Progress) -> 
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let mut pictures = Vec::new();
+    let mut erased = 0;
     for p in &spec.backgrounds {
         let image = robot_agent::load_rgb(p)
             .with_context(|| format!("reading background {}", p.display()))?;
-        pictures.push(frame_of(image));
+        let mut frame = frame_of(image);
+        if let Some(class) = spec.erase_class {
+            for b in background_balls(p, class, frame.width, frame.height)? {
+                sim::erase_box(&mut frame, [b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px]);
+                erased += 1;
+            }
+        }
+        pictures.push(frame);
+    }
+    if spec.erase_class.is_some() {
+        progress.message(format!(
+            "{erased} labelled balls painted over in the backgrounds"
+        ));
     }
     progress.message(format!("rendering {} pitch views", spec.rendered));
     let renders = rendered_views(spec.rendered, spec.seed)?;
@@ -254,6 +299,7 @@ mod tests {
             count: 12,
             seed: 4,
             backgrounds: Vec::new(),
+            erase_class: None,
             rendered: 0,
             kinds: vec![BackgroundKind::Carpet],
         };
@@ -283,5 +329,62 @@ mod tests {
             balls += usize::from(!designs.is_empty());
         }
         assert_eq!(balls, with_ball);
+    }
+
+    #[test]
+    fn a_background_photos_labelled_ball_is_painted_over() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (96u32, 72u32);
+        // A green floor with a red ball, labelled (class 0) beside the photo.
+        let mut image = robot_agent::RgbImage::filled(w, h, [40, 140, 50]).unwrap();
+        for y in 0..h {
+            for x in 0..w {
+                if (f64::from(x) - 48.0).hypot(f64::from(y) - 36.0) < 10.0 {
+                    image.set_pixel(x, y, [230, 20, 20]);
+                }
+            }
+        }
+        let background = dir.path().join("field.png");
+        std::fs::write(&background, robot_agent::encode_png(&image).unwrap()).unwrap();
+        std::fs::write(
+            dir.path().join("field.txt"),
+            "0 0.5 0.5 0.2083333 0.2777778\n",
+        )
+        .unwrap();
+        let red = |out: &Path| -> usize {
+            let mut n = 0;
+            for f in std::fs::read_dir(out.join("images")).unwrap() {
+                let photo = robot_agent::load_rgb(&f.unwrap().path()).unwrap();
+                n += photo
+                    .data()
+                    .chunks_exact(3)
+                    .filter(|p| u16::from(p[0]) > u16::from(p[1]) + 80)
+                    .count();
+            }
+            n
+        };
+        for (erase, out) in [(None, "kept"), (Some(0), "erased")] {
+            let spec = PhotoSetSpec {
+                profile: PhotoProfile {
+                    sizes_px: &[(96, 72)],
+                    ball_chance: 0.0,
+                    distractors: [0, 0],
+                    ..PhotoProfile::train()
+                },
+                count: 4,
+                seed: 2,
+                backgrounds: vec![background.clone()],
+                erase_class: erase,
+                rendered: 0,
+                kinds: vec![BackgroundKind::Photos],
+            };
+            let out = dir.path().join(out);
+            write_photo_set(&spec, &out, &Progress::hidden(4)).unwrap();
+            let n = red(&out);
+            match erase {
+                None => assert!(n > 20, "the real ball is in the photos ({n} red pixels)"),
+                Some(_) => assert_eq!(n, 0, "the real ball is painted over"),
+            }
+        }
     }
 }

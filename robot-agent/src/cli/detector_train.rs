@@ -24,25 +24,30 @@ use std::collections::BTreeMap;
 
 /// The labelled photos of `items`, decoded; a photo that cannot be read is reported and
 /// left out.
+/// The photos that could be read with their ball boxes, and how many boxes of other
+/// classes their labels held.
 pub fn load_photos(
     folder: &LabelledFolder,
     items: &[&Item],
     what: &str,
-) -> Vec<(RgbImage, Vec<BallBox>)> {
+) -> (Vec<(RgbImage, Vec<BallBox>)>, usize) {
     let bar = bar(items.len(), what);
-    let mut out = Vec::new();
+    let (mut out, mut others) = (Vec::new(), 0);
     for item in items {
         let loaded = crate::io::image_io::load_rgb(&item.image)
             .map_err(anyhow::Error::from)
-            .and_then(|image| Ok((folder.labels(item, &image)?.balls, image)));
+            .and_then(|image| Ok((folder.labels(item, &image)?, image)));
         match loaded {
-            Ok((balls, image)) => out.push((image, balls)),
+            Ok((labels, image)) => {
+                others += labels.others;
+                out.push((image, labels.balls));
+            }
             Err(e) => bar.suspend(|| eprintln!("{}: left out: {e:#}", item.image.display())),
         }
         bar.inc(1);
     }
     bar.finish_and_clear();
-    out
+    (out, others)
 }
 
 /// Draws the stage's batches on the bar and prints a line per epoch with the time spent
@@ -158,9 +163,16 @@ pub fn train_detector(
     val: (&LabelledFolder, &[&Item]),
     how: DetectorTraining<'_>,
 ) -> Result<TrainedDetector> {
-    let train_photos = load_photos(folder, train, "loading training photos");
+    let (train_photos, others) = load_photos(folder, train, "loading training photos");
     anyhow::ensure!(!train_photos.is_empty(), "no training photo could be read");
-    let val_photos = load_photos(val.0, val.1, "loading held-out photos");
+    let balls: usize = train_photos.iter().map(|(_, b)| b.len()).sum();
+    anyhow::ensure!(
+        balls > 0,
+        "the {} training photos' labels hold no ball, and {others} boxes of other classes: \
+         name the ball's class with --ball-class (a class id) or --ball-name",
+        train_photos.len()
+    );
+    let (val_photos, _) = load_photos(val.0, val.1, "loading held-out photos");
     let frames = |p: &[(RgbImage, Vec<BallBox>)]| -> Vec<FramePhoto> {
         p.iter().map(|(i, b)| FramePhoto::new(i, b)).collect()
     };

@@ -112,11 +112,17 @@ pub struct TrainArgs {
 const FINE_TUNE_CANDIDATE_EPOCHS: usize = 12;
 const FINE_TUNE_CHECKER_EPOCHS: usize = 8;
 
+/// Writes a file whole or not at all: to a temporary file beside it, then renamed over
+/// it, so a model already there is replaced only by a complete one.
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)?;
     }
-    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+    let mut partial = path.as_os_str().to_owned();
+    partial.push(".partial");
+    let partial = PathBuf::from(partial);
+    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
+    std::fs::rename(&partial, path).with_context(|| format!("writing {}", path.display()))
 }
 
 pub fn run(args: TrainArgs) -> Result<()> {
@@ -409,10 +415,15 @@ fn run_detector(args: TrainArgs) -> Result<()> {
         },
     )?;
     let mut file = out.file.clone();
-    println!(
-        "the candidate stage reached {} of the {} training balls",
-        out.training_balls_reached.0, out.training_balls_reached.1
-    );
+    let (reached, balls) = out.training_balls_reached;
+    println!("the candidate stage reached {reached} of the {balls} training balls");
+    if 2 * reached < balls {
+        eprintln!(
+            "warning: the candidate stage reaches fewer than half the training balls; the \
+             detector cannot find a ball no candidate is on (more --candidate-epochs, or \
+             labels that fit the balls' edges, may help)"
+        );
+    }
     if let Some(report) = &out.held_out {
         println!("held-out photos ({}):", val_items.len());
         println!("{report}");

@@ -21,9 +21,15 @@ struct Args {
     count: u64,
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Real photos to paint balls on (files, or folders of PNG and JPEG files).
+    /// Real photos to paint balls on (files, or folders of PNG and JPEG files, subfolders
+    /// included).
     #[arg(long, value_delimiter = ',')]
     backgrounds: Vec<PathBuf>,
+    /// Background photos with YOLO labels beside them (a labelled data set's photos): paint
+    /// over their balls of this class before painting one in, so no real ball is left
+    /// unlabelled in a training photo.
+    #[arg(long, value_name = "CLASS")]
+    erase_class: Option<u32>,
     /// Rendered views of the simulated pitch in the rotation of backgrounds.
     #[arg(long, default_value_t = 24)]
     rendered: usize,
@@ -51,7 +57,7 @@ fn image_files(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
         if p.is_dir() {
-            out.extend(robot_agent::image_files(p)?);
+            out.extend(robot_agent::image_files_recursive(p)?);
         } else {
             out.push(p.clone());
         }
@@ -84,6 +90,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         count: args.count,
         seed: args.seed,
         backgrounds: image_files(&args.backgrounds)?,
+        erase_class: args.erase_class,
         rendered: args.rendered,
         kinds: args.kinds,
     };
