@@ -344,17 +344,37 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
                 .to_possible_value()
                 .map_or(String::new(), |v| v.get_name().to_string()),
         );
-        report::rewrite_section_between(
-            path,
-            photo_eval::SECTION_BEGIN,
-            photo_eval::SECTION_END,
-            &section,
-        )?;
+        // The default detector's section, or one of its own for another.
+        let (begin, end) = match preset {
+            DetectorPreset::Net => (
+                photo_eval::SECTION_BEGIN.to_string(),
+                photo_eval::SECTION_END.to_string(),
+            ),
+            other => {
+                let name = other
+                    .to_possible_value()
+                    .map_or(String::new(), |v| v.get_name().to_string());
+                (
+                    format!("<!-- evaluate-photos-{name}:begin -->"),
+                    format!("<!-- evaluate-photos-{name}:end -->"),
+                )
+            }
+        };
+        report::rewrite_section_between(path, &begin, &end, &section)?;
         eprintln!("updated {}", path.display());
     }
+    let plot = match preset {
+        DetectorPreset::Net => "photos_recall_by_width.png".to_string(),
+        other => format!(
+            "photos_recall_by_width_{}.png",
+            other
+                .to_possible_value()
+                .map_or(String::new(), |v| v.get_name().replace('-', "_"))
+        ),
+    };
     eprintln!(
         "wrote {}",
-        photo_eval::write_plot(&args.plots, "photos_recall_by_width.png", &results)?
+        photo_eval::write_plot(&args.plots, &plot, &results)?
     );
     Ok(())
 }
