@@ -46,18 +46,7 @@ fn photos_are_reproducible_and_labelled_inside_the_frame() {
 fn a_big_ball_is_mostly_orange_inside_its_box() {
     let profile = PhotoProfile {
         radius_px: [30.0, 30.0],
-        ball_chance: 1.0,
-        distractors: [0, 0],
-        occlusion_chance: 0.0,
-        designs: vec![(BallDesign::Plain, 1.0)],
-        plain_neutral_chance: 0.0,
-        white_balance_sigma: 0.0,
-        exposure: [1.0, 1.0],
-        gamma: [1.0, 1.0],
-        noise_sigma: [0.0, 0.0],
-        motion_blur_px: [0.0, 0.0],
-        defocus_chance: 0.0,
-        ..PhotoProfile::train()
+        ..clean_profile(BallDesign::Plain)
     };
     let photo = synth_photo(&profile, Background::Carpet, 1, 0);
     let ball = photo.balls[0];
