@@ -106,6 +106,10 @@ pub struct PhotoProfile {
     pub plain_neutral_chance: f64,
     /// Share of balls partly hidden (up to 40 % of the disc).
     pub occlusion_chance: f64,
+    /// Share of balls held under the camera: big (a fifth to half the photo's height),
+    /// near the middle of the bottom edge and cut by it, as a robot sees the ball it
+    /// dribbles.
+    pub held_chance: f64,
     /// Look-alikes per photo (orange bars, pale-orange skin-like blobs, white discs).
     pub distractors: [usize; 2],
     pub texture: CarpetTexture,
@@ -133,7 +137,13 @@ impl PhotoProfile {
     pub fn train() -> Self {
         PhotoProfile {
             name: "train",
-            sizes_px: &[(224, 224), (320, 240), (640, 360)],
+            sizes_px: &[
+                (224, 224),
+                (320, 240),
+                (640, 360),
+                (800, 600),
+                (1280, 720),
+            ],
             ball_chance: 0.8,
             radius_px: [2.0, 48.0],
             hue_deg: [8.0, 34.0],
@@ -151,6 +161,7 @@ impl PhotoProfile {
             ],
             plain_neutral_chance: 0.15,
             occlusion_chance: 0.15,
+            held_chance: 0.06,
             distractors: [0, 3],
             texture: CarpetTexture::Blotches,
             carpet_hue_deg: [85.0, 160.0],
@@ -189,6 +200,7 @@ impl PhotoProfile {
             ],
             plain_neutral_chance: 0.2,
             occlusion_chance: 0.2,
+            held_chance: 0.0,
             distractors: [0, 4],
             texture: CarpetTexture::Stripes,
             carpet_hue_deg: [75.0, 175.0],
@@ -332,10 +344,20 @@ pub fn synth_photo(
     }
     let mut balls = Vec::new();
     if rng.chance(profile.ball_chance) {
-        let (lo, hi) = (profile.radius_px[0].ln(), profile.radius_px[1].ln());
-        let r = rng.range(lo, hi).exp().min(0.45 * f64::from(w.min(h)));
-        let cx = rng.range(0.0, f64::from(w - 1));
-        let cy = rng.range(0.0, f64::from(h - 1));
+        // (No draw for a profile that never holds the ball, so its photos stay as they were.)
+        let held = profile.held_chance > 0.0 && rng.chance(profile.held_chance);
+        let (r, cx, cy) = if held {
+            let (fw, fh) = (f64::from(w), f64::from(h));
+            let r = rng.range(0.2, 0.5) * fh;
+            let cx = fw * (0.5 + rng.range(-0.2, 0.2));
+            (r, cx, fh - 1.0 + r * rng.range(-0.3, 0.5))
+        } else {
+            let (lo, hi) = (profile.radius_px[0].ln(), profile.radius_px[1].ln());
+            let r = rng.range(lo, hi).exp().min(0.45 * f64::from(w.min(h)));
+            let cx = rng.range(0.0, f64::from(w - 1));
+            let cy = rng.range(0.0, f64::from(h - 1));
+            (r, cx, cy)
+        };
         let design = profile.draw_design(&mut rng);
         let look = crate::photo_shapes::BallPaint::draw(design, profile, &mut rng);
         crate::photo_shapes::ball(&mut frame, [cx, cy], r, &look, &mut rng);

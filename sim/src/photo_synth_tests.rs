@@ -85,6 +85,7 @@ fn clean_profile(design: BallDesign) -> PhotoProfile {
         ball_chance: 1.0,
         distractors: [0, 0],
         occlusion_chance: 0.0,
+        held_chance: 0.0,
         designs: vec![(design, 1.0)],
         plain_neutral_chance: 0.0,
         white_balance_sigma: 0.0,
@@ -365,5 +366,20 @@ fn an_erased_box_takes_the_colour_around_it_and_nothing_else_changes() {
             let i = 3 * (y * w + x) as usize;
             assert_eq!(corner.rgb[i..i + 3], frame.rgb[i..i + 3], "({x}, {y})");
         }
+    }
+}
+
+#[test]
+fn a_held_ball_is_big_and_cut_by_the_bottom_edge() {
+    let profile = PhotoProfile {
+        held_chance: 1.0,
+        ..clean_profile(BallDesign::Classic)
+    };
+    for i in 0..10 {
+        let photo = synth_photo(&profile, Background::Carpet, 4, i);
+        let [_, y0, _, y1] = photo.balls[0].box_px;
+        let h = f64::from(photo.frame.height);
+        assert!(photo.balls[0].radius_px >= 0.2 * h, "{:?}", photo.balls[0]);
+        assert!(y1 >= h - 1.0 && y0 < 0.95 * h - 1.0, "{:?}", photo.balls[0]);
     }
 }
