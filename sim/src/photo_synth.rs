@@ -137,13 +137,7 @@ impl PhotoProfile {
     pub fn train() -> Self {
         PhotoProfile {
             name: "train",
-            sizes_px: &[
-                (224, 224),
-                (320, 240),
-                (640, 360),
-                (800, 600),
-                (1280, 720),
-            ],
+            sizes_px: &[(224, 224), (320, 240), (640, 360), (800, 600), (1280, 720)],
             ball_chance: 0.8,
             radius_px: [2.0, 48.0],
             hue_deg: [8.0, 34.0],
