@@ -187,6 +187,8 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
         .args(["train", "--images"])
         .arg(photos())
         .args([
+            "--hard-negative-rounds",
+            "1",
             "--candidate-epochs",
             "1",
             "--checker-epochs",
@@ -207,6 +209,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     assert!(stdout.contains("the candidate stage reached"), "{stdout}");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("nothing named to hold out"), "{stderr}");
+    assert!(stderr.contains("hard-negative round 1"), "{stderr}");
     let bytes = std::fs::read(&model).unwrap();
     robot_agent::Checker::from_safetensors(&bytes).unwrap();
     let net = robot_agent::HeatNet::from_safetensors(&bytes).unwrap();

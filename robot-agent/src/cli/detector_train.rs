@@ -140,7 +140,57 @@ pub struct DetectorTraining<'a> {
     pub random_negatives: usize,
     /// Moved and scaled copies of each ball for the checker.
     pub copies: usize,
+    /// Rounds of hard-negative mining after the checker's training: the whole detector
+    /// runs over the training photos, what the checker accepts away from every ball joins
+    /// its samples ([`HARD_NEGATIVE_COPIES`] times), and the checker trains on for
+    /// [`HARD_NEGATIVE_EPOCHS`] epochs.
+    pub hard_negative_rounds: usize,
     pub metadata: BTreeMap<String, String>,
+}
+
+/// Copies of each mined false positive among the checker's samples.
+pub const HARD_NEGATIVE_COPIES: usize = 4;
+
+/// Epochs of the checker per hard-negative round.
+pub const HARD_NEGATIVE_EPOCHS: usize = 3;
+
+/// The checker's false positives on some photos: every candidate of the whole detector that
+/// it accepts and that keeps clear of every labelled ball, as samples that are not a ball.
+fn mined_negatives(
+    photos: &[(RgbImage, Vec<BallBox>)],
+    detector: &Detector,
+    checker: &Checker,
+) -> Result<Vec<Sample>> {
+    let bar = bar(photos.len(), "mining false positives");
+    let mut out = Vec::new();
+    for (image, balls) in photos {
+        let candidates = crate::detection::photo::detect_photo(
+            detector,
+            checker,
+            0.5,
+            image,
+            None,
+            &mut crate::detection::detect::NoClock,
+        )?;
+        for c in candidates {
+            let accepted = c.probability.is_some_and(|p| p >= 0.5);
+            if accepted
+                && balls
+                    .iter()
+                    .all(|b| crate::detection::ballnet_data::clear_of(&c.circle, b))
+                && let Some(patch) = checker::patch_for(image, &c.circle)
+            {
+                out.push(Sample {
+                    patch,
+                    ball: false,
+                    target: [0.0; 3],
+                });
+            }
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(out)
 }
 
 /// What a training run made.
@@ -227,6 +277,34 @@ pub fn train_detector(
         &mut report_progress(&check_bar, "checker"),
     )?;
     check_bar.finish_and_clear();
+    let mut check = check;
+    let mut train_samples = train_samples;
+    for round in 1..=how.hard_negative_rounds {
+        let (_, _, current) = weights_file(&heat, &check, &how.metadata)?;
+        let detector = net_detector(&DetectorConfig::default(), Some(net.clone()))?;
+        let mined = mined_negatives(&train_photos, &detector, &current)?;
+        eprintln!(
+            "hard-negative round {round}: the checker accepted {} candidates away from every \
+             ball in the training photos",
+            mined.len()
+        );
+        for _ in 0..HARD_NEGATIVE_COPIES {
+            train_samples.extend(mined.iter().cloned());
+        }
+        let cfg = StageTrainConfig {
+            epochs: HARD_NEGATIVE_EPOCHS,
+            ..how.checker
+        };
+        let round_bar = bar(0, "grey checker");
+        check = train_checker(
+            &train_samples,
+            &val_samples,
+            &cfg,
+            Some(&check),
+            &mut report_progress(&round_bar, &format!("checker round {round}")),
+        )?;
+        round_bar.finish_and_clear();
+    }
     let (file, net, checker) = weights_file(&heat, &check, &how.metadata)?;
     let held_out = if val.1.is_empty() {
         None

@@ -93,6 +93,11 @@ pub struct TrainArgs {
     /// weights.
     #[arg(long)]
     pub checker_epochs: Option<usize>,
+    /// Rounds of hard-negative mining (detector): after the checker's training, the whole
+    /// detector runs over the training photos, what the checker accepts away from every
+    /// ball is added to its samples, and it trains on for a few epochs.
+    #[arg(long, default_value_t = 0)]
+    pub hard_negative_rounds: usize,
     /// The detector file whose two stages are fine-tuned (detector): `shipped` (the
     /// default) for the shipped detector, `none` to start from random weights.
     #[arg(long, value_name = "MODEL", default_value = "shipped")]
@@ -411,6 +416,7 @@ fn run_detector(args: TrainArgs) -> Result<()> {
             start: start.as_ref(),
             random_negatives: args.random_negatives,
             copies: args.copies,
+            hard_negative_rounds: args.hard_negative_rounds,
             metadata: recipe(&args, train_items.len(), &parts.held_out),
         },
     )?;
