@@ -307,7 +307,8 @@ impl LabelWriter {
             }
         }
         eprintln!(
-            "wrote {} label files to {} ({} existing ones kept); {} lists the least certain photos first",
+            "wrote {} label files to {} ({} existing ones kept); {} lists the least certain \
+             photos first",
             self.written,
             self.dir.display(),
             self.kept,

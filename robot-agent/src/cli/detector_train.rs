@@ -22,10 +22,8 @@ use indicatif::ProgressBar;
 use proto::rng::Rng;
 use std::collections::BTreeMap;
 
-/// The labelled photos of `items`, decoded; a photo that cannot be read is reported and
-/// left out.
-/// The photos that could be read with their ball boxes, and how many boxes of other
-/// classes their labels held.
+/// The labelled photos of `items`, decoded, with their ball boxes, and how many boxes of
+/// other classes their labels held; a photo that cannot be read is reported and left out.
 pub fn load_photos(
     folder: &LabelledFolder,
     items: &[&Item],
@@ -56,8 +54,7 @@ fn report_progress<'a>(bar: &'a ProgressBar, what: &str) -> impl FnMut(Progress)
     let what = what.to_string();
     let started = std::time::Instant::now();
     let (mut done, mut total) = (0usize, 0usize);
-    move |p| {
-        match p {
+    move |p| match p {
         Progress::Batch { done: d, total: t } => {
             (done, total) = (d, t);
             bar.set_length(t as u64);
@@ -66,24 +63,24 @@ fn report_progress<'a>(bar: &'a ProgressBar, what: &str) -> impl FnMut(Progress)
         Progress::Epoch(r) => bar.suspend(|| {
             let spent_s = started.elapsed().as_secs_f64();
             let left_s = if done > 0 {
-                spent_s * (total.saturating_sub(done)) as f64 / done as f64
+                spent_s * total.saturating_sub(done) as f64 / done as f64
             } else {
                 0.0
             };
+            let held_out = if r.val_loss.is_nan() {
+                "– (nothing held out)".to_string()
+            } else {
+                format!("{:.4}", r.val_loss)
+            };
             eprintln!(
-                "{what} epoch {:>3}: training loss {:.4}, held-out loss {} [{} spent, about {} left]",
+                "{what} epoch {:>3}: training loss {:.4}, held-out loss {held_out} \
+                 [{} spent, about {} left]",
                 r.epoch,
                 r.train_loss,
-                if r.val_loss.is_nan() {
-                    "– (nothing held out)".to_string()
-                } else {
-                    format!("{:.4}", r.val_loss)
-                },
                 minutes(spent_s),
                 minutes(left_s)
             )
         }),
-    }
     }
 }
 

@@ -187,8 +187,9 @@ impl Split {
             let choice = automatic_hold_out(&self.folder.items);
             described = choice.describe(&self.folder.items);
             eprintln!(
-                "nothing named to hold out: holding out {described}; name event folders with --hold-out \
-                 (or a folder with --val) to choose, --hold-out none to train on every photo"
+                "nothing named to hold out: holding out {described}; name event folders \
+                 with --hold-out (or a folder with --val) to choose, --hold-out none to \
+                 train on every photo"
             );
             let (mut val, mut train) = (Vec::new(), Vec::new());
             for (k, i) in self.folder.items.iter().enumerate() {
