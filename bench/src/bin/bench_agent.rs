@@ -202,6 +202,21 @@ fn main() -> Result<()> {
             net.multiply_adds(640, 360) as f64 / 1e6,
             checker.multiply_adds() as f64 / 1e6
         );
+        // Reading both networks from the shipped file's bytes, as the agent does at start.
+        let bytes = robot_agent::builtin::DETECTOR;
+        let mut load_ms = Vec::new();
+        for _ in 0..20 {
+            let started = Instant::now();
+            robot_agent::HeatNet::from_safetensors(bytes)?;
+            robot_agent::Checker::from_safetensors(bytes)?;
+            load_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        }
+        load_ms.sort_by(f64::total_cmp);
+        table += &format!(
+            "The weights file is {} kB; reading both networks from it takes {:.2} ms (median of 20).\n",
+            bytes.len() / 1000,
+            load_ms[load_ms.len() / 2]
+        );
     }
     println!("{table}");
     if let Some(path) = &args.doc {
