@@ -387,6 +387,11 @@ class ServerGoesAway(unittest.TestCase):
         )
         try:
             with BallClient.connect([f"tcp/127.0.0.1:{port}"], server_timeout_s=10.0) as c:
+                # The client may have found the server by its probe query before the
+                # server's liveliness token reached it.
+                deadline = time.monotonic() + 5.0
+                while not c.servers() and time.monotonic() < deadline:
+                    time.sleep(0.05)
                 self.assertEqual(c.servers(), ["going"])
                 with self.assertRaises(QueryError) as cm:
                     c.predict(1.0)
