@@ -162,6 +162,26 @@ pub struct BallTruth {
     pub range_m: f64,
 }
 
+impl BallTruth {
+    /// The ball's box `[x_min, y_min, x_max, y_max]` (pixels) when it is fair to label: in
+    /// the frame, its whole disc inside the `width_px`×`height_px` image and more than 90 %
+    /// of it visible. `None` otherwise (out of view, cut by the edge or mostly hidden).
+    pub fn full_view_box_px(&self, width_px: u32, height_px: u32) -> Option<[f64; 4]> {
+        let c = self.center_px?;
+        let r = self.radius_px;
+        let inside = c[0] - r > 0.0
+            && c[1] - r > 0.0
+            && c[0] + r < f64::from(width_px) - 1.0
+            && c[1] + r < f64::from(height_px) - 1.0;
+        (self.in_frame && inside && self.visible_fraction > 0.9).then_some([
+            c[0] - r,
+            c[1] - r,
+            c[0] + r,
+            c[1] + r,
+        ])
+    }
+}
+
 /// Tileable carpet-like luminance, ~1 on average, generated once per rig.
 #[derive(Debug, Clone)]
 pub(crate) struct FloorTexture {

@@ -3,7 +3,7 @@
 //! candidate network's peaks and the appearance proposals (its hard negatives), and at
 //! random; both with progress bars; then the whole detector scored on the held-out photos.
 
-use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
+use crate::cli::evaluate::held_out_score;
 use crate::cli::labelled::{Item, LabelledFolder};
 use crate::cli::progress::bar;
 use crate::detection::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
@@ -303,23 +303,11 @@ pub fn train_detector(
         round_bar.finish_and_clear();
     }
     let (file, net, checker) = weights_file(&heat, &check, &how.metadata)?;
-    let held_out = if val.1.is_empty() {
-        None
-    } else {
-        let detector = net_detector(&DetectorConfig::default(), Some(net.clone()))?;
-        let out = evaluate_items(
-            val.0,
-            val.1,
-            &detector,
-            &checker,
-            &EvaluateOptions {
-                min_probability: 0.5,
-                what: "held-out score",
-                verbose: false,
-            },
-        )?;
-        Some(out.report)
-    };
+    let held_out = held_out_score(
+        val,
+        &net_detector(&DetectorConfig::default(), Some(net.clone()))?,
+        &checker,
+    )?;
     Ok(TrainedDetector {
         file,
         net,

@@ -37,6 +37,26 @@ fn timing(ms: &[f64]) -> Option<TimingMs> {
         .map(|(median, p90)| TimingMs { median, p90 })
 }
 
+/// A newly trained model's held-out score (at probability 0.5, quietly), or `None` when
+/// nothing is held out.
+pub fn held_out_score(
+    val: (&LabelledFolder, &[&Item]),
+    detector: &Detector,
+    classifier: &dyn CandidateClassifier,
+) -> Result<Option<LabelReport>> {
+    if val.1.is_empty() {
+        return Ok(None);
+    }
+    let opts = EvaluateOptions {
+        min_probability: 0.5,
+        what: "held-out score",
+        verbose: false,
+    };
+    Ok(Some(
+        evaluate_items(val.0, val.1, detector, classifier, &opts)?.report,
+    ))
+}
+
 /// Runs the detector on every photo of `items` and scores it.
 pub fn evaluate_items(
     folder: &LabelledFolder,

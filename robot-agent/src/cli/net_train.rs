@@ -3,7 +3,7 @@
 //! every photo with a progress bar, the fit, and the held-out score of the whole detector
 //! (appearance proposals judged by the new network) on the held-out photos.
 
-use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
+use crate::cli::evaluate::held_out_score;
 use crate::cli::labelled::{Item, LabelledFolder};
 use crate::cli::progress::bar;
 use crate::detection::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
@@ -131,24 +131,11 @@ pub fn train_on_photos(
         trained.best_epoch,
         trained.epochs.len()
     );
-    let held_out = if val.1.is_empty() {
-        None
-    } else {
-        let detector = net_detector(&DetectorConfig::default())?;
-        let classifier = NetClassifier::new(trained.net.clone());
-        let out = evaluate_items(
-            val.0,
-            val.1,
-            &detector,
-            &classifier,
-            &EvaluateOptions {
-                min_probability: 0.5,
-                what: "held-out score",
-                verbose: false,
-            },
-        )?;
-        Some(out.report)
-    };
+    let held_out = held_out_score(
+        val,
+        &net_detector(&DetectorConfig::default())?,
+        &NetClassifier::new(trained.net.clone()),
+    )?;
     Ok(NetTraining { trained, held_out })
 }
 

@@ -72,20 +72,15 @@ fn run(args: Args) -> Result<()> {
             for id in &ids {
                 let capture = world.capture(id, t, k as u64);
                 for (side, (frame, truth)) in capture.frames.iter().enumerate() {
-                    let ball = truth.as_ref().and_then(|t| {
-                        let c = t.center_px?;
-                        let r = t.radius_px;
-                        let inside = c[0] - r > 0.0
-                            && c[1] - r > 0.0
-                            && c[0] + r < f64::from(frame.width) - 1.0
-                            && c[1] + r < f64::from(frame.height) - 1.0;
-                        (t.in_frame && inside && t.visible_fraction > 0.9).then_some(BallBox {
-                            x_min_px: c[0] - r,
-                            y_min_px: c[1] - r,
-                            x_max_px: c[0] + r,
-                            y_max_px: c[1] + r,
-                        })
-                    });
+                    let ball = truth
+                        .as_ref()
+                        .and_then(|t| t.full_view_box_px(frame.width, frame.height))
+                        .map(|[x0, y0, x1, y1]| BallBox {
+                            x_min_px: x0,
+                            y_min_px: y0,
+                            x_max_px: x1,
+                            y_max_px: y1,
+                        });
                     let partly = truth.as_ref().is_some_and(|t| t.in_frame) && ball.is_none();
                     if partly {
                         continue;
