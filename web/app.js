@@ -2,14 +2,20 @@
 // { stamp, ball, robots, pitch, observations, rejected, replay }. Frames only update the
 // model; drawing runs on requestAnimationFrame, the panel a few times a second.
 //
+// A robot chosen (on the pitch or in the robots' table) gets its intercept and its two
+// cameras' newest views (views.js, drawn by camera.js) with its perception per camera.
+//
 // For tests and curious users, `window.__teamBall` is a read-only snapshot of what the page
 // shows: connection state, the ball and robots as drawn (field and canvas CSS pixels), the
-// sightings drawn per robot, the replay and the chosen robot's intercept.
+// sightings drawn per robot, the replay, the chosen robot's intercept and the camera views
+// (`views`: per "robot/camera" the newest kept, and for the chosen robot what is drawn).
 
 import { PitchView } from "./pitch.js";
 import { StripChart } from "./chart.js";
 import { ReplayBar } from "./replay.js";
-import { showBall, showIntercept, showRejected, showRobots, showServer } from "./panel.js";
+import { CameraFigure } from "./camera.js";
+import { CAMERAS, ViewStream, viewKey } from "./views.js";
+import { showBall, showIntercept, showPerception, showRejected, showRobots, showServer } from "./panel.js";
 
 /// No state for this long: the page says the picture is stale.
 const STALE_MS = 1500;
@@ -44,6 +50,8 @@ const pitch = new PitchView(el("pitch"));
 const speedChart = new StripChart(el("chart-speed"), { label: "speed", unit: "m/s", colour: "#e64a19", window_s: HISTORY_S });
 const ellipseChart = new StripChart(el("chart-ellipse"), { label: "2σ ellipse (major)", unit: "cm", colour: "#1565c0", window_s: HISTORY_S });
 const replayBar = new ReplayBar();
+const views = new ViewStream();
+const figures = Object.fromEntries(CAMERAS.map((cam) => [cam, new CameraFigure(cam, el("sight-cameras"))]));
 let drawn = { ball: null, robots: {}, ellipses: {}, rejected: {}, intercept: null };
 const drawTimes = [];
 let lastPanel = 0;
@@ -84,6 +92,9 @@ function onFrame(view) {
     model.trail = [];
     model.history = [];
   }
+  // Back in time: the views from after the new time were never seen there. The server
+  // re-sends each camera's newest view up to it.
+  if (prev && t_s < prev.stamp / NS - 0.01) views.forgetAfter(view.stamp);
   model.robotIds = [...new Set([...model.robotIds, ...view.robots.map((r) => r.robot_id)])]
     .sort((a, b) => a.localeCompare(b, "en", { numeric: true }));
   const b = view.ball;
@@ -157,14 +168,43 @@ function robotAt(px, py) {
   return best && best.id;
 }
 
-el("pitch").addEventListener("click", (e) => {
-  const box = e.currentTarget.getBoundingClientRect();
-  const id = robotAt(e.clientX - box.left, e.clientY - box.top);
+/// Chooses a robot (null: none): its intercept, its cameras.
+function select(id) {
+  if (id === model.selected) return;
   model.selected = id;
   model.interceptReply = null;
   model.interceptError = null;
-  if (id) askIntercept();
+  views.want(Boolean(id));
+  el("sight").hidden = !id;
+  if (id) {
+    el("sight-title").textContent = `Cameras of ${id}`;
+    askIntercept();
+  }
+  lastPanel = 0;
+}
+
+el("pitch").addEventListener("click", (e) => {
+  const box = e.currentTarget.getBoundingClientRect();
+  select(robotAt(e.clientX - box.left, e.clientY - box.top));
 });
+
+/// A robot chosen in the table: its cameras, at the top of the panel, come into sight.
+function selectRow(row) {
+  select(row.dataset.robot);
+  el("sight").scrollIntoView({ block: "nearest" });
+}
+el("robots").addEventListener("click", (e) => {
+  const row = e.target.closest("tr[data-robot]");
+  if (row) selectRow(row);
+});
+el("robots").addEventListener("keydown", (e) => {
+  const row = e.target.closest("tr[data-robot]");
+  if (row && (e.key === "Enter" || e.key === " ")) {
+    e.preventDefault();
+    selectRow(row);
+  }
+});
+el("sight-close").addEventListener("click", () => select(null));
 setInterval(askIntercept, INTERCEPT_EVERY_MS);
 
 function frame(now) {
@@ -177,13 +217,18 @@ function frame(now) {
     intercept: model.selected ? model.interceptReply : null,
     stale,
   });
+  if (model.selected && model.view) drawSight(model.selected, model.view);
   drawTimes.push(now);
   while (drawTimes.length && now - drawTimes[0] > 2000) drawTimes.shift();
   if (now - lastPanel > PANEL_EVERY_MS && model.view) {
     lastPanel = now;
     const v = model.view;
     showBall(v.ball);
-    showRobots(v.robots, model.robotIds);
+    showRobots(v.robots, model.robotIds, model.selected);
+    if (model.selected) {
+      const r = v.robots.find((q) => q.robot_id === model.selected);
+      showPerception(model.selected, r && r.status);
+    }
     showRejected(v.rejected);
     showServer({ frames_per_s: rate(model.arrivals), draw_fps: rate(drawTimes), observations: (v.observations || []).length });
     showIntercept(model.selected && { robot_id: model.selected, reply: model.interceptReply, error: model.interceptError });
@@ -192,6 +237,32 @@ function frame(now) {
     ellipseChart.draw(model.history.map((h) => ({ t_s: h.t_s, v: h.ellipse_cm })), t);
   }
   requestAnimationFrame(frame);
+}
+
+/// The chosen robot's cameras, each redrawn when its view or its size changed.
+function drawSight(id, v) {
+  for (const cam of CAMERAS) {
+    figures[cam].draw({ robotId: id, ...views.ready(id, cam), clock: v.stamp, replay: v.replay || null });
+  }
+  const note = el("sight-note");
+  let text = "";
+  if (views.state === "connecting") text = "connecting to the camera views…";
+  else if (views.state === "down") text = "camera views: disconnected, retrying…";
+  else if (!views.has(id)) text = `No camera views from ${id}${v.replay ? " up to this time of the match" : ""}.`;
+  note.hidden = !text;
+  if (note.textContent !== text) note.textContent = text;
+}
+
+/// The views for the debug snapshot: every one kept, with what is drawn of the chosen robot's.
+function viewsShown() {
+  const out = views.summary();
+  for (const cam of CAMERAS) {
+    const d = model.selected && figures[cam].drawn;
+    if (!d) continue;
+    const key = viewKey(model.selected, cam);
+    out[key] = { ...out[key], latestStamp: out[key] ? out[key].stamp : null, drawn: true, ...d };
+  }
+  return out;
 }
 
 /// Events per second over the times kept (the last 2 s).
@@ -214,6 +285,10 @@ Object.defineProperty(window, "__teamBall", {
       rejected: drawn.rejected,
       selected: model.selected,
       intercept: drawn.intercept,
+      labels: drawn.labels,
+      views: viewsShown(),
+      viewStream: views.state,
+      sightNote: model.selected && !el("sight-note").hidden ? el("sight-note").textContent : null,
       interceptError: model.interceptError,
       replay: v ? v.replay || null : null,
       replayClock: el("replay-clock").textContent,

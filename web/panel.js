@@ -1,5 +1,6 @@
-// The side panel: the ball's facts, the robots' table, rejected inputs by reason and the
-// server's rate. Rebuilt a few times a second, never on every frame.
+// The side panel: the ball's facts, the robots' table, the chosen robot's perception per
+// camera, rejected inputs by reason and the server's rate. Rebuilt a few times a second,
+// never on every frame.
 
 import { colourOf, ellipse2Sigma, OFFLINE } from "./pitch.js";
 
@@ -43,38 +44,83 @@ export function showBall(b) {
   el("ball").textContent = `ball: ${b.status} at (${b.position_m[0].toFixed(2)}, ${b.position_m[1].toFixed(2)}) m, ${speed.toFixed(2)} m/s`;
 }
 
-export function showRobots(robots, ids) {
+/// The text of a cell, set only when it changed.
+function setText(td, text) {
+  if (td.textContent !== text) td.textContent = text;
+}
+
+/// One row per robot, kept from one refresh to the next (a click must not land on a row
+/// that was just replaced); `selected` is marked.
+export function showRobots(robots, ids, selected) {
   const body = el("robots");
+  const old = new Map([...body.children].map((tr) => [tr.dataset.robot, tr]));
   const rows = robots.map((r) => {
-    const tr = document.createElement("tr");
-    tr.dataset.robot = r.robot_id;
+    let tr = old.get(r.robot_id);
+    if (!tr) {
+      tr = document.createElement("tr");
+      tr.dataset.robot = r.robot_id;
+      tr.tabIndex = 0;
+      tr.title = `${r.robot_id}: show what it sees`;
+      for (let i = 0; i < 7; i++) tr.appendChild(document.createElement("td"));
+      const swatch = document.createElement("span");
+      swatch.className = "swatch";
+      tr.children[0].append(swatch, document.createTextNode(r.robot_id));
+    }
+    const td = tr.children;
     tr.dataset.online = r.online ? "yes" : "no";
-    if (!r.online) tr.className = "off";
-    const name = cell(tr, r.robot_id);
-    const swatch = document.createElement("span");
-    swatch.className = "swatch";
-    swatch.style.background = r.online ? colourOf(r.robot_id, ids) : OFFLINE;
-    name.prepend(swatch);
-    cell(tr, r.online ? "yes" : "no");
-    cell(tr, fixed(r.obs_rate_hz, 1));
+    tr.classList.toggle("off", !r.online);
+    tr.classList.toggle("selected", r.robot_id === selected);
+    tr.setAttribute("aria-selected", r.robot_id === selected ? "true" : "false");
+    td[0].firstChild.style.background = r.online ? colourOf(r.robot_id, ids) : OFFLINE;
+    setText(td[1], r.online ? "yes" : "no");
+    setText(td[2], fixed(r.obs_rate_hz, 1));
     // Trust: 1 / the covariance scale the fusion applies (1 = the robot is honest).
-    cell(tr, r.covariance_scale == null ? "–" : (1 / r.covariance_scale).toFixed(2));
-    cell(tr, r.latency_s == null ? "–" : `${(1000 * r.latency_s).toFixed(0)} ms`);
-    cell(tr, r.outlier_rate == null ? "–" : `${(100 * r.outlier_rate).toFixed(0)} %`);
+    setText(td[3], r.covariance_scale == null ? "–" : (1 / r.covariance_scale).toFixed(2));
+    setText(td[4], r.latency_s == null ? "–" : `${(1000 * r.latency_s).toFixed(0)} ms`);
+    setText(td[5], r.outlier_rate == null ? "–" : `${(100 * r.outlier_rate).toFixed(0)} %`);
     // Clock: the server's estimate of server minus robot clock (positive: the robot is behind).
-    const clock = cell(tr, r.clock_offset_s == null ? "–" : `${r.clock_offset_s >= 0 ? "+" : ""}${(1000 * r.clock_offset_s).toFixed(0)} ms`);
-    if (r.clock_correction_s) {
-      clock.textContent += " ✓";
-    }
-    if (r.clock_suspect) {
-      clock.className = "suspect";
-      clock.title = r.clock_correction_s
-        ? `this robot's clock is off; the server corrects its stamps by ${(1000 * r.clock_correction_s).toFixed(0)} ms (synchronise it, e.g. with NTP)`
-        : "this robot's clock is off: its sightings are placed at the wrong time (synchronise it, e.g. with NTP)";
-    }
+    const clock = td[6];
+    setText(clock, (r.clock_offset_s == null ? "–" : `${r.clock_offset_s >= 0 ? "+" : ""}${(1000 * r.clock_offset_s).toFixed(0)} ms`) +
+      (r.clock_correction_s ? " ✓" : ""));
+    clock.className = r.clock_suspect ? "suspect" : "";
+    clock.title = !r.clock_suspect ? "" : r.clock_correction_s
+      ? `this robot's clock is off; the server corrects its stamps by ${(1000 * r.clock_correction_s).toFixed(0)} ms (synchronise it, e.g. with NTP)`
+      : "this robot's clock is off: its sightings are placed at the wrong time (synchronise it, e.g. with NTP)";
     return tr;
   });
-  body.replaceChildren(...rows);
+  const now = [...body.children];
+  if (rows.length !== now.length || rows.some((tr, i) => tr !== now[i])) body.replaceChildren(...rows);
+}
+
+/// The chosen robot's perception per camera, as its status reports it (`cameras`), or why
+/// there is none.
+export function showPerception(robotId, status) {
+  const body = el("sight-health").tBodies[0];
+  const cams = (status && status.cameras) || [];
+  el("sight-health").hidden = !cams.length;
+  el("sight-health-note").hidden = cams.length > 0;
+  el("sight-health-note").textContent = status
+    ? `${robotId} reports no camera counters.`
+    : `${robotId} has sent no status.`;
+  body.replaceChildren(...cams.map((c) => {
+    const tr = document.createElement("tr");
+    tr.dataset.camera = c.camera;
+    cell(tr, c.camera);
+    cell(tr, fixed(c.frames_per_s, 1));
+    cell(tr, fixed(c.candidates_per_frame, 2));
+    cell(tr, fixed(c.balls_per_s, 1));
+    cell(tr, fixed(c.detector_ms, 1, " ms"));
+    return tr;
+  }));
+  const list = el("sight-rejections");
+  list.replaceChildren(...cams.map((c) => {
+    const li = document.createElement("li");
+    li.dataset.camera = c.camera;
+    const reasons = Object.entries(c.rejections || {}).sort((a, b) => b[1] - a[1]);
+    li.textContent = `${c.camera} rejected: ${reasons.length ? reasons.map(([r, n]) => `${r} ${n}`).join(", ") : "none"}` +
+      ` (of ${c.candidates} candidates in ${c.frames} frames, ${c.balls} balls)`;
+    return li;
+  }));
 }
 
 export function showRejected(rejected) {

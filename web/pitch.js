@@ -2,7 +2,10 @@
 // sightings (2σ ellipses fading with age, rejected ones crossed out with their reason), the
 // fused ball with its 2σ ellipse, velocity arrow, trail and predicted path (bounces, stop),
 // and a chosen robot's intercept. Drawing only: what to draw comes in, what was drawn
-// (in CSS pixels) goes out for the page's debug object.
+// (in CSS pixels) goes out for the page's debug object. The stop's and the intercept's
+// labels are placed last, clear of each other, of the ball and of the robots' names.
+
+import { LabelLayout } from "./labels.js";
 
 export const OFFLINE = "#9e9e9e";
 const PALETTE = ["#42a5f5", "#ab47bc", "#ffca28", "#26c6da", "#ec407a",
@@ -10,6 +13,8 @@ const PALETTE = ["#42a5f5", "#ab47bc", "#ffca28", "#26c6da", "#ec407a",
 /// Sightings older than this (seconds since arrival) are no longer drawn.
 export const FADE_S = 2.0;
 const NS = 1e9;
+const LABEL_FONT = "11px system-ui, sans-serif";
+const LABEL_H_PX = 13;
 
 export function colourOf(robotId, ids) {
   const i = ids.indexOf(robotId);
@@ -66,10 +71,12 @@ export class PitchView {
 
   /// Draws one frame of `m` (see app.js) and returns what it drew.
   draw(m) {
-    const out = { ball: null, robots: {}, ellipses: {}, rejected: {}, intercept: null, stale: m.stale };
+    const out = { ball: null, robots: {}, ellipses: {}, rejected: {}, intercept: null, labels: [], stale: m.stale };
     const view = m.view;
     if (!view) return out;
     this.fit(view.pitch);
+    this.layout = new LabelLayout({ x: 0, y: 0, w: this.cssW, h: this.cssH });
+    this.queued = [];
     const ctx = this.ctx;
     ctx.clearRect(0, 0, this.cssW, this.cssH);
     this.field(view.pitch);
@@ -83,6 +90,7 @@ export class PitchView {
     this.trail(m.trail);
     if (view.ball) this.ball(view.ball, view.pitch, out);
     if (m.intercept) this.intercept(m.intercept, view.robots, out);
+    this.labels(out);
     if (m.stale) this.staleMark();
     return out;
   }
@@ -201,7 +209,10 @@ export class PitchView {
       ctx.stroke();
       ctx.fillStyle = r.online ? "#fff" : "#cfd8dc";
       ctx.font = "12px system-ui, sans-serif";
-      ctx.fillText(r.online ? r.robot_id : `${r.robot_id} (offline)`, px + radius + 2, py - radius);
+      const name = r.online ? r.robot_id : `${r.robot_id} (offline)`;
+      ctx.fillText(name, px + radius + 2, py - radius);
+      this.layout.block({ x: px - radius, y: py - radius, w: 2 * radius, h: 2 * radius });
+      this.layout.block({ x: px + radius + 2, y: py - radius - 11, w: ctx.measureText(name).width, h: 14 });
       out.robots[r.robot_id] = { online: r.online, colour: body, px, py, radius_px: radius };
     }
   }
@@ -235,7 +246,6 @@ export class PitchView {
       ctx.setLineDash([]);
     }
     ctx.fillStyle = "#ffeb3b";
-    ctx.font = "11px system-ui, sans-serif";
     for (const bounce of pred.bounces || []) {
       const px = this.X(bounce.position_m[0]), py = this.Y(bounce.position_m[1]);
       ctx.beginPath();
@@ -248,7 +258,8 @@ export class PitchView {
       ctx.strokeStyle = "#ffeb3b";
       ctx.lineWidth = 2;
       ctx.strokeRect(px - 5, py - 5, 10, 10);
-      ctx.fillText(`stop ${pred.stop.t_s.toFixed(1)} s`, px + 8, py + 4);
+      this.layout.block({ x: px - 6, y: py - 6, w: 12, h: 12 });
+      this.queued.push({ kind: "stop", text: `stop ${pred.stop.t_s.toFixed(1)} s`, x: px, y: py, colour: "#ffeb3b" });
     }
     const [x, y] = b.position_m;
     const px = this.X(x), py = this.Y(y);
@@ -272,12 +283,14 @@ export class PitchView {
     ctx.fillStyle = b.status === "tracking" || b.status === "stopped" ? "#ff5722" : "#ffab91";
     ctx.strokeStyle = "#3e2723";
     ctx.lineWidth = 1;
+    const radius = Math.max(5, pitch.ball_radius_m * s);
     ctx.beginPath();
-    ctx.arc(px, py, Math.max(5, pitch.ball_radius_m * s), 0, 2 * Math.PI);
+    ctx.arc(px, py, radius, 0, 2 * Math.PI);
     ctx.fill();
     ctx.stroke();
     ctx.restore();
-    out.ball = { x_m: x, y_m: y, px, py, status: b.status, ellipse: e, stamp: b.stamp, existence };
+    this.layout.block({ x: px - radius, y: py - radius, w: 2 * radius, h: 2 * radius });
+    out.ball = { x_m: x, y_m: y, px, py, radius_px: radius, status: b.status, ellipse: e, stamp: b.stamp, existence };
   }
 
   arrow(x0, y0, x1, y1, colour) {
@@ -318,10 +331,26 @@ export class PitchView {
     ctx.moveTo(px - 8, py); ctx.lineTo(px + 8, py);
     ctx.moveTo(px, py - 8); ctx.lineTo(px, py + 8);
     ctx.stroke();
-    ctx.fillStyle = "#e1f5fe";
-    ctx.font = "11px system-ui, sans-serif";
-    ctx.fillText(`${i.robot_id} ${i.t_s.toFixed(1)} s`, px + 9, py + 12);
+    this.layout.block({ x: px - 9, y: py - 9, w: 18, h: 18 });
+    this.queued.push({ kind: "intercept", text: `${i.robot_id} ${i.t_s.toFixed(1)} s`, x: px, y: py, colour: "#e1f5fe" });
     out.intercept = { robot_id: i.robot_id, point_m: i.point_m, t_s: i.t_s, px, py };
+  }
+
+  /// The labels queued while drawing, each where it covers nothing drawn or placed before it.
+  labels(out) {
+    const ctx = this.ctx;
+    ctx.font = LABEL_FONT;
+    ctx.textBaseline = "top";
+    for (const q of this.queued) {
+      const box = this.layout.place(q.x, q.y, ctx.measureText(q.text).width, LABEL_H_PX);
+      // A dark backing keeps the text readable over ellipses and trails.
+      ctx.fillStyle = "rgba(27, 94, 32, 0.6)";
+      ctx.fillRect(box.x - 1, box.y - 1, box.w + 2, box.h + 1);
+      ctx.fillStyle = q.colour;
+      ctx.fillText(q.text, box.x, box.y + 1);
+      out.labels.push({ kind: q.kind, text: q.text, ...box });
+    }
+    ctx.textBaseline = "alphabetic";
   }
 
   staleMark() {

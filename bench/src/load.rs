@@ -125,6 +125,16 @@ impl ServerProcess {
         keys: Option<&Keys>,
         open_files: Option<u32>,
     ) -> Result<ServerProcess> {
+        ServerProcess::start_args(bin, keys, open_files, &[])
+    }
+
+    /// As [`ServerProcess::start_with`], with more `serve` flags.
+    pub fn start_args(
+        bin: &Path,
+        keys: Option<&Keys>,
+        open_files: Option<u32>,
+        extra: &[String],
+    ) -> Result<ServerProcess> {
         let port = free_loopback_port()?;
         let (endpoint, security) = match keys {
             Some(k) => (
@@ -151,6 +161,7 @@ impl ServerProcess {
             .arg("serve")
             .args(&security)
             .args(["--listen", &endpoint, "--http", "127.0.0.1:0"])
+            .args(extra)
             .env("RUST_LOG", "warn,zenoh=error")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())

@@ -90,7 +90,7 @@ pub struct EngineConfig {
 pub const DEFAULT_MAX_OBSERVATION_BYTES: usize = 4096;
 /// Default cap on a status payload: the largest status [`proto::Validate`] accepts, every
 /// number at full precision, fits (tested).
-pub const DEFAULT_MAX_STATUS_BYTES: usize = 16 * 1024;
+pub const DEFAULT_MAX_STATUS_BYTES: usize = 24 * 1024;
 
 impl Default for EngineConfig {
     fn default() -> Self {
@@ -785,6 +785,11 @@ impl Engine {
             .iter()
             .map(|((kind, reason), n)| (format!("{kind}/{reason}"), *n))
             .collect()
+    }
+
+    /// Whether robot `id` is online (its liveliness token is present).
+    pub fn is_online(&self, id: &str) -> bool {
+        self.robots.get(id).is_some_and(|r| r.online)
     }
 
     /// Robots whose liveliness token is present.

@@ -39,6 +39,7 @@
 //! assert!(flight.position[0] > 0.3 && flight.position[0] < 0.5);
 //! ```
 
+mod camera_views;
 mod cli;
 mod clock;
 mod engine;

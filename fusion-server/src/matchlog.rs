@@ -23,6 +23,12 @@ pub enum LogKind {
     Scene,
     /// Foxglove `FrameTransforms`: each robot's frame.
     Transforms,
+    /// A camera view's metadata (`proto::CameraView`, its image in [`LogKind::Image`]).
+    View,
+    /// A camera view's image: Foxglove `CompressedImage`.
+    Image,
+    /// A camera view's candidates: Foxglove `ImageAnnotations`.
+    Annotations,
 }
 
 /// A match log that never blocks the caller.

@@ -14,6 +14,8 @@
 mod draw;
 mod entities;
 
+pub(crate) use draw::timestamp;
+
 use crate::engine::{Engine, RecentObs, RobotView};
 use crate::matchlog::record::Schema;
 use foxglove::Encode;
@@ -35,6 +37,11 @@ pub const PITCH_FRAME: &str = "pitch";
 pub const SCENE_PERIOD_S: f64 = 0.1;
 /// Seconds between repeats of the pitch.
 pub const PITCH_PERIOD_S: f64 = 1.0;
+/// How early an update may come: states arrive on a clock of their own (every 33.3 ms at
+/// 30 Hz, with jitter), and an update due a hair after the third state must not wait for
+/// the fourth.
+const DUE_SLACK_S: f64 = 0.005;
+
 /// Sightings received this long before the update are drawn.
 pub const SIGHTING_WINDOW_S: f64 = 0.5;
 
@@ -148,7 +155,7 @@ impl Scene {
     /// Whether an update is due at `at` (without drawing it).
     pub fn due(&self, at: Stamp) -> bool {
         self.last_update
-            .is_none_or(|t| at < t || at.secs_since(t) >= SCENE_PERIOD_S - 1e-9)
+            .is_none_or(|t| at < t || at.secs_since(t) >= SCENE_PERIOD_S - DUE_SLACK_S)
     }
 
     /// The scene's messages due at `at`, drawn from `engine` (`ball`: its state at `at`,
@@ -179,7 +186,7 @@ impl Scene {
         let mut out = Vec::with_capacity(3);
         let pitch_due = self
             .last_pitch
-            .is_none_or(|t| at < t || at.secs_since(t) >= PITCH_PERIOD_S - 1e-9);
+            .is_none_or(|t| at < t || at.secs_since(t) >= PITCH_PERIOD_S - DUE_SLACK_S);
         if pitch_due {
             self.last_pitch = Some(at);
             out.push(SceneRecord {

@@ -16,3 +16,4 @@ pub mod net;
 pub mod replay_live;
 pub mod serve;
 pub mod standby;
+pub mod views;

@@ -45,6 +45,7 @@ fn status(robot: &str) -> proto::RobotStatus {
         fps: 15.0,
         timings: vec![],
         footprints: vec![],
+        cameras: vec![],
     }
 }
 

@@ -68,6 +68,12 @@ async fn session(endpoint: &str, tls: Option<&Path>, mode: &str) -> zenoh::Sessi
     .expect("session opens (links come up, or not, in the background)")
 }
 
+/// A valid camera view of `robot`'s left camera, captured now.
+fn camera_view(robot: &str, seq: u64) -> Vec<u8> {
+    let v = proto::test_support::camera_view(robot, proto::Camera::Left, seq, SystemClock.now());
+    proto::encode(&v)
+}
+
 fn obs(robot: &str, seq: u64, at: [f64; 2]) -> Vec<u8> {
     let o = proto::test_support::observation(robot, seq, SystemClock.now(), at);
     proto::encode(&o)
@@ -164,11 +170,13 @@ async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Pat
         let as_miro1 = publisher(s, "rf/robots/miro1/obs").await;
         let ball = publisher(s, "rf/ball/state").await;
         let status = publisher(s, "rf/robots/miro1/status").await;
+        let view = publisher(s, "rf/robots/miro1/view/left").await;
         for k in 0..40 {
             put(&as_miro1, obs("miro1", 10_000 + k, FORGED)).await;
             put(&ball, format!("{{\"mark\":\"{MARK}\"}}").into_bytes()).await;
             put(&status, MARK.as_bytes().to_vec()).await;
-            impostor_puts += 3;
+            put(&view, camera_view("miro1", k)).await;
+            impostor_puts += 4;
         }
         if i == 0 {
             // miro2 may still speak for itself.
@@ -177,6 +185,8 @@ async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Pat
                 put(&mine, obs("miro2", other_seq + k, HONEST)).await;
                 legit_other += 1;
             }
+            let own_view = publisher(s, "rf/robots/miro2/view/left").await;
+            put(&own_view, camera_view("miro2", 0)).await;
         }
     }
 
@@ -239,6 +249,15 @@ async fn impostors_are_refused(addr: &str, endpoint: &str, mode: &str, dir: &Pat
         metric(addr, "rf_observations_accepted_total") - accepted_before,
         expected
     );
+
+    // A robot's camera view is its own: miro2's is kept, none of the impostors' as miro1.
+    wait_for("miro2's own view", Duration::from_secs(10), || {
+        let (code, _) = http_get(addr, "/api/robots/miro2/view/left").ok()?;
+        (code == 200).then_some(())
+    });
+    let (code, _) = http_get(addr, "/api/robots/miro1/view/left").expect("HTTP");
+    assert_eq!(code, 404, "an impostor's view of miro1 was kept");
+    assert_eq!(metric(addr, "rf_camera_views_received_total"), 1.0);
 
     // The server's ball is the honest one, and so is every state the robot got.
     let state = get_json(addr, "/api/state");

@@ -67,6 +67,16 @@ impl KeySpace {
         self.robot_key(robot_id, "/status")
     }
 
+    /// `{prefix}/robots/{id}/view/{camera}`: a robot's `CameraView`s of one camera.
+    pub fn robot_view(&self, robot_id: &str, camera: crate::Camera) -> Result<String, KeyError> {
+        self.robot_key(robot_id, &format!("/view/{}", camera_chunk(camera)))
+    }
+
+    /// `{prefix}/robots/*/view/*`: every robot's camera views.
+    pub fn all_views(&self) -> String {
+        format!("{}/robots/*/view/*", self.prefix)
+    }
+
     /// `{prefix}/robots/{id}`: a robot's liveliness token.
     pub fn robot_liveliness(&self, robot_id: &str) -> Result<String, KeyError> {
         self.robot_key(robot_id, "")
@@ -120,6 +130,23 @@ impl KeySpace {
     }
 }
 
+/// The key chunk of a camera: `left` or `right`.
+pub fn camera_chunk(camera: crate::Camera) -> &'static str {
+    match camera {
+        crate::Camera::Left => "left",
+        crate::Camera::Right => "right",
+    }
+}
+
+/// The camera a key chunk names.
+pub fn camera_of_chunk(chunk: &str) -> Option<crate::Camera> {
+    match chunk {
+        "left" => Some(crate::Camera::Left),
+        "right" => Some(crate::Camera::Right),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -133,6 +160,16 @@ mod tests {
         assert_eq!(k.all_obs(), "rf/robots/*/obs");
         assert_eq!(k.ball_state(), "rf/ball/state");
         assert_eq!(k.ball_predict(), "rf/ball/predict");
+        assert_eq!(
+            k.robot_view("miro1", crate::Camera::Right).as_deref(),
+            Ok("rf/robots/miro1/view/right")
+        );
+        assert_eq!(k.all_views(), "rf/robots/*/view/*");
+        assert_eq!(k.robot_id_of("rf/robots/miro1/view/left"), Some("miro1"));
+        assert_eq!(
+            camera_of_chunk(camera_chunk(crate::Camera::Left)),
+            Some(crate::Camera::Left)
+        );
         assert_eq!(k.server_liveliness("s1").as_deref(), Ok("rf/servers/s1"));
         assert_eq!(k.robot_id_of("rf/robots/miro1/obs"), Some("miro1"));
         assert_eq!(k.robot_id_of("xx/robots/miro1/obs"), None);

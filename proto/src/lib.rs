@@ -25,9 +25,10 @@ pub mod stats;
 #[cfg(any(test, feature = "test-support"))]
 pub mod test_support;
 mod validate;
+mod view;
 
 pub use codec::{DecodeError, decode, encode};
-pub use keys::{DEFAULT_PREFIX, KeyError, KeySpace, is_valid_id};
+pub use keys::{DEFAULT_PREFIX, KeyError, KeySpace, camera_chunk, camera_of_chunk, is_valid_id};
 pub use messages::{
     BallState, BallStatus, BounceEvent, Camera, CameraFootprint, HeadJoints, Intercept,
     ModelParams, Observation, PathSample, PixelBall, Pose2, Prediction, RobotStatus, StageTiming,
@@ -38,6 +39,11 @@ pub use stamp::Stamp;
 pub use validate::{
     MAX_FOOTPRINT_POINTS, MAX_STAGE_NAME_BYTES, MAX_STATUS_FOOTPRINTS, MAX_STATUS_TIMINGS,
     Validate, ValidationContext, ValidationError,
+};
+pub use view::{
+    CameraPerception, CameraView, CandidateOutcome, CandidateStage, MAX_REASON_BYTES,
+    MAX_REJECTION_REASONS, MAX_VIEW_CANDIDATES, MAX_VIEW_JPEG_BYTES, MAX_VIEW_PAYLOAD_BYTES,
+    MAX_VIEW_SIDE_PX, ViewCandidate, jpeg_base64, jpeg_size_px,
 };
 
 /// Version of the wire format. Decoders reject messages carrying any other version.

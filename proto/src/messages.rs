@@ -5,7 +5,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Which of a MiRo's two cameras took the image.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize, JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Camera {
     Left,
@@ -93,6 +95,9 @@ pub struct RobotStatus {
     pub fps: f64,
     pub timings: Vec<StageTiming>,
     pub footprints: Vec<CameraFootprint>,
+    /// Each camera's perception counters. Absent in statuses from before they existed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cameras: Vec<crate::CameraPerception>,
 }
 
 /// The fused ball's motion state.

@@ -16,6 +16,7 @@ pub fn all() -> Vec<(&'static str, Schema)> {
         named::<crate::BallState>("BallState"),
         named::<crate::Prediction>("Prediction"),
         named::<crate::Intercept>("Intercept"),
+        named::<crate::CameraView>("CameraView"),
         named::<crate::Pitch>("Pitch"),
     ]
 }

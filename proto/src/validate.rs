@@ -37,6 +37,8 @@ pub enum ValidationError {
         bytes: usize,
         limit: usize,
     },
+    #[error("{0}")]
+    NotAnImage(&'static str),
 }
 
 /// Most stage timings a [`RobotStatus`] may carry.
@@ -63,6 +65,7 @@ impl ValidationError {
             ValidationError::OutOfRange { .. } => "out_of_range",
             ValidationError::TooMany { .. } => "too_many",
             ValidationError::TooLong { .. } => "too_long",
+            ValidationError::NotAnImage(_) => "not_jpeg",
         }
     }
 }
@@ -89,7 +92,7 @@ impl ValidationContext {
         }
     }
 
-    fn check_stamp(&self, stamp: Stamp) -> Result<(), ValidationError> {
+    pub(crate) fn check_stamp(&self, stamp: Stamp) -> Result<(), ValidationError> {
         let skew_s = stamp.secs_since(self.now);
         if skew_s.abs() > self.max_clock_skew_s {
             return Err(ValidationError::StampOutOfRange {
@@ -118,7 +121,7 @@ pub trait Validate {
     fn validate(&self, ctx: &ValidationContext) -> Result<(), ValidationError>;
 }
 
-fn check_version(found: u32) -> Result<(), ValidationError> {
+pub(crate) fn check_version(found: u32) -> Result<(), ValidationError> {
     if found != VERSION {
         return Err(ValidationError::UnsupportedVersion {
             found,
@@ -128,7 +131,7 @@ fn check_version(found: u32) -> Result<(), ValidationError> {
     Ok(())
 }
 
-fn check_finite(field: &'static str, values: &[f64]) -> Result<(), ValidationError> {
+pub(crate) fn check_finite(field: &'static str, values: &[f64]) -> Result<(), ValidationError> {
     if values.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
@@ -136,7 +139,7 @@ fn check_finite(field: &'static str, values: &[f64]) -> Result<(), ValidationErr
     }
 }
 
-fn check_robot_id(id: &str) -> Result<(), ValidationError> {
+pub(crate) fn check_robot_id(id: &str) -> Result<(), ValidationError> {
     if is_valid_id(id) {
         Ok(())
     } else {
@@ -176,7 +179,11 @@ fn check_covariance<const N: usize>(field: &'static str, m: &[f64]) -> Result<()
     Ok(())
 }
 
-fn check_count(field: &'static str, count: usize, limit: usize) -> Result<(), ValidationError> {
+pub(crate) fn check_count(
+    field: &'static str,
+    count: usize,
+    limit: usize,
+) -> Result<(), ValidationError> {
     if count <= limit {
         Ok(())
     } else {
@@ -204,6 +211,7 @@ fn check_status_sizes(s: &RobotStatus) -> Result<(), ValidationError> {
         });
     }
     check_count("footprints", s.footprints.len(), MAX_STATUS_FOOTPRINTS)?;
+    check_count("cameras", s.cameras.len(), MAX_STATUS_FOOTPRINTS)?;
     for f in &s.footprints {
         check_count(
             "footprints.polygon_m",
@@ -214,7 +222,12 @@ fn check_status_sizes(s: &RobotStatus) -> Result<(), ValidationError> {
     Ok(())
 }
 
-fn check_range(field: &'static str, value: f64, lo: f64, hi: f64) -> Result<(), ValidationError> {
+pub(crate) fn check_range(
+    field: &'static str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+) -> Result<(), ValidationError> {
     if (lo..=hi).contains(&value) {
         Ok(())
     } else {
@@ -256,6 +269,9 @@ impl Validate for RobotStatus {
         for t in &self.timings {
             check_finite("timings", &[t.ms])?;
             check_range("timings", t.ms, 0.0, 1e6)?;
+        }
+        for c in &self.cameras {
+            c.validate()?;
         }
         for f in &self.footprints {
             for p in &f.polygon_m {

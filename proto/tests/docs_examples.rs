@@ -78,6 +78,7 @@ fn docs_examples_decode_and_validate() {
             "BallState" => decode_validate::<proto::BallState>(&json, &ctx),
             "Prediction" => decode_validate::<proto::Prediction>(&json, &ctx),
             "Pitch" => decode_validate::<proto::Pitch>(&json, &ctx),
+            "CameraView" => decode_validate::<proto::CameraView>(&json, &ctx),
             "Intercept" => proto::decode::<proto::Intercept>(&json)
                 .map(drop)
                 .map_err(|e| e.to_string()),

@@ -15,6 +15,7 @@ fn sound_messages_validate() {
     assert_accepted(&examples::prediction(), &ctx());
     assert_accepted(&examples::ball_state(), &ctx());
     assert_accepted(&examples::pitch(), &ctx());
+    assert_accepted(&examples::camera_view(), &ctx());
     let mut no_pixel = examples::observation();
     no_pixel.pixel = None;
     assert_accepted(&no_pixel, &ctx());
@@ -444,9 +445,75 @@ fn reason_labels_are_distinct_and_stable() {
             "out_of_range",
             "too_many",
             "too_long",
+            "not_jpeg",
         ]
     );
     for e in examples::one_error_of_each_kind() {
         assert!(!e.to_string().is_empty());
+    }
+}
+
+mod camera_view {
+    use super::*;
+    use proto::{CameraView, MAX_VIEW_CANDIDATES, MAX_VIEW_JPEG_BYTES, jpeg_base64};
+
+    fn base() -> CameraView {
+        examples::camera_view()
+    }
+
+    fn reason(v: &CameraView) -> Option<&'static str> {
+        v.validate(&ctx()).err().map(|e| e.reason())
+    }
+
+    #[test]
+    fn the_image_must_be_a_jpeg_of_the_stated_size() {
+        let mut v = base();
+        v.jpeg_base64 = "not base64!".into();
+        assert_eq!(reason(&v), Some("not_jpeg"));
+        let mut v = base();
+        v.jpeg_base64 = jpeg_base64(b"\x89PNG\r\n\x1a\n0000000000");
+        assert_eq!(reason(&v), Some("not_jpeg"));
+        let mut v = base();
+        v.width_px = 17;
+        assert_eq!(reason(&v), Some("not_jpeg"));
+        assert_eq!(base().jpeg().map(|j| j.len()).ok(), Some(330));
+    }
+
+    #[test]
+    fn sizes_are_capped_before_the_image_is_read() {
+        let mut v = base();
+        v.jpeg_base64 = "A".repeat(MAX_VIEW_JPEG_BYTES / 3 * 4 + 8);
+        assert_eq!(reason(&v), Some("too_long"));
+        let mut v = base();
+        v.width_px = 321;
+        assert_eq!(reason(&v), Some("out_of_range"));
+        let mut v = base();
+        let c = v.candidates[0].clone();
+        v.candidates = vec![c; MAX_VIEW_CANDIDATES + 1];
+        assert_eq!(reason(&v), Some("too_many"));
+    }
+
+    #[test]
+    fn annotations_stay_inside_the_image() {
+        for (set, why) in [
+            (
+                (|v: &mut CameraView| v.candidates[0].u_px = 16.5) as fn(&mut CameraView),
+                "out_of_range",
+            ),
+            (|v| v.candidates[0].v_px = -0.1, "out_of_range"),
+            (|v| v.candidates[0].radius_px = 40.0, "out_of_range"),
+            (|v| v.candidates[0].score = 1.5, "out_of_range"),
+            (|v| v.candidates[1].u_px = f64::NAN, "non_finite"),
+            (
+                |v| v.candidates[1].reason = Some("Not A Reason".into()),
+                "too_long",
+            ),
+            (|v| v.robot_id = "a/b".into(), "robot_id"),
+            (|v| v.stamp = v.stamp.offset_secs(60.0), "stamp"),
+        ] {
+            let mut v = base();
+            set(&mut v);
+            assert_eq!(reason(&v), Some(why), "{v:?}");
+        }
     }
 }

@@ -1,8 +1,10 @@
 //! The robot agent's state between frames, without any I/O: camera models, detector,
-//! sequence numbers, the team's latest ball state and counters. The binary feeds it frames
-//! and ball states and publishes what it returns.
+//! sequence numbers, the team's latest ball state and counters (each camera's too). The
+//! binary feeds it frames, their pipeline times and ball states, and publishes what it
+//! returns.
 
 use crate::calibration::camera::CameraModel;
+use crate::camera_counters::CameraCounters;
 use crate::detection::detect::{
     CandidateClassifier, DetectError, Detector, DetectorConfig, StageClock,
 };
@@ -62,6 +64,10 @@ pub struct Agent {
     shared: Option<BallState>,
     frames: u64,
     rejections: BTreeMap<&'static str, u64>,
+    /// The left and right cameras' counters.
+    cameras: [CameraCounters; 2],
+    /// The last status's stamp: where the cameras' current interval began.
+    last_status: Option<Stamp>,
 }
 
 impl std::fmt::Debug for Agent {
@@ -102,6 +108,8 @@ impl Agent {
             shared: None,
             frames: 0,
             rejections: BTreeMap::new(),
+            cameras: Default::default(),
+            last_status: None,
         })
     }
 
@@ -199,6 +207,7 @@ impl Agent {
         for (_, why) in &result.rejected {
             *self.rejections.entry(why.reason()).or_default() += 1;
         }
+        self.cameras[i].on_frame(frame.stamp, &result);
         let observation = match &result.sighting {
             Some(s) => {
                 self.detectors[i].adapt(frame.image, &s.circle)?;
@@ -229,10 +238,17 @@ impl Agent {
         })
     }
 
-    /// The robot's status: pose, head, frame rate, stage timings and each camera's floor
-    /// footprint.
+    /// The pipeline's time on `camera`'s last frame (the shell measures it), for the
+    /// camera's median in the status.
+    pub fn record_pipeline_ms(&mut self, camera: Camera, pipeline_ms: f64) {
+        self.cameras[index(camera)].on_pipeline_ms(pipeline_ms);
+    }
+
+    /// The robot's status: pose, head, frame rate, stage timings, each camera's floor
+    /// footprint and each camera's perception counters, with rates over the interval since
+    /// the last status (which this one closes).
     pub fn status(
-        &self,
+        &mut self,
         stamp: Stamp,
         pose: Pose2,
         pose_covariance: [f64; 9],
@@ -252,6 +268,11 @@ impl Agent {
                 ),
             })
             .collect();
+        let since = self.last_status.replace(stamp);
+        let cameras = [Camera::Left, Camera::Right]
+            .into_iter()
+            .map(|camera| self.cameras[index(camera)].close_interval(camera, since, stamp))
+            .collect();
         RobotStatus {
             version: proto::VERSION,
             robot_id: self.robot_id.clone(),
@@ -262,6 +283,7 @@ impl Agent {
             fps,
             timings,
             footprints,
+            cameras,
         }
     }
 }
@@ -368,7 +390,7 @@ mod tests {
 
     #[test]
     fn status_carries_footprints_for_both_cameras() {
-        let a = agent();
+        let mut a = agent();
         let cov = [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4];
         let s = a.status(Stamp(5), Pose2::default(), cov, head(), 15.0, Vec::new());
         assert_eq!(s.footprints.len(), 2);
@@ -378,5 +400,67 @@ mod tests {
         assert!(left_y > right_y, "the left camera looks left");
         let ctx = proto::ValidationContext::new(Pitch::default(), Stamp(5));
         s.validate(&ctx).unwrap();
+        // Both cameras' counters, even without frames.
+        let cameras: Vec<Camera> = s.cameras.iter().map(|c| c.camera).collect();
+        assert_eq!(cameras, [Camera::Left, Camera::Right]);
+        assert!(
+            s.cameras
+                .iter()
+                .all(|c| c.frames == 0 && c.frames_per_s == 0.0)
+        );
+    }
+
+    #[test]
+    fn status_counts_each_cameras_frames_over_the_interval() {
+        let mut a = agent();
+        let (ball, blank) = (
+            frame_with_ball(),
+            RgbImage::filled(640, 360, [120, 118, 112]).unwrap(),
+        );
+        let cov = [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4];
+        // The interval begins with a status at 0 s.
+        a.status(Stamp(0), Pose2::default(), cov, head(), 15.0, Vec::new());
+        // Left: a ball every 0.1 s for 1 s; right: one blank frame.
+        for k in 1..=10u64 {
+            let input = FrameInput {
+                stamp: Stamp(k * 100_000_000),
+                camera: Camera::Left,
+                image: &ball,
+                pose: Pose2::default(),
+                pose_covariance: cov,
+                head: head(),
+            };
+            a.on_frame(&input, &mut NoClock).unwrap();
+            a.record_pipeline_ms(Camera::Left, 2.0 + k as f64);
+        }
+        let blank_input = FrameInput {
+            stamp: Stamp(500_000_000),
+            camera: Camera::Right,
+            image: &blank,
+            pose: Pose2::default(),
+            pose_covariance: cov,
+            head: head(),
+        };
+        a.on_frame(&blank_input, &mut NoClock).unwrap();
+        a.record_pipeline_ms(Camera::Right, 1.0);
+        let s = a.status(
+            Stamp(1_000_000_000),
+            Pose2::default(),
+            cov,
+            head(),
+            15.0,
+            Vec::new(),
+        );
+        let ctx = proto::ValidationContext::new(Pitch::default(), s.stamp);
+        s.validate(&ctx).unwrap();
+        let (left, right) = (&s.cameras[0], &s.cameras[1]);
+        assert_eq!((left.frames, left.balls), (10, 10));
+        assert!(left.candidates >= 10);
+        assert!((left.frames_per_s - 10.0).abs() < 1e-9, "{left:?}");
+        assert!((left.balls_per_s - 10.0).abs() < 1e-9, "{left:?}");
+        assert!((left.detector_ms - 7.5).abs() < 1e-9, "{left:?}");
+        assert_eq!((right.frames, right.balls), (1, 0));
+        assert!((right.frames_per_s - 1.0).abs() < 1e-9, "{right:?}");
+        assert_eq!(right.detector_ms, 1.0);
     }
 }

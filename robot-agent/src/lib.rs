@@ -12,8 +12,9 @@
 //! ball candidates, one stage per module: [`Detector`], the classifiers [`BallNet`] and
 //! [`SvmModel`]), projection (pixel to floor point with its covariance, and the MiRo's
 //! kinematics), the image buffers ([`RgbImage`], [`GrayImage`]), the pipeline of one frame
-//! and the [`Agent`] between frames, image files and ROS messages ([`ros_msg`]), and the
-//! runtime's frame sources ([`FrameSource`], [`McapSource`]). Three public modules are
+//! and the [`Agent`] between frames (with each camera's perception counters), a camera's
+//! view for people watching ([`camera_view`]), image files and ROS messages ([`ros_msg`]),
+//! and the runtime's frame sources ([`FrameSource`], [`McapSource`]). Three public modules are
 //! APIs of their own: [`builtin`] (the shipped calibration and ball classifier),
 //! [`labels`] (Pascal VOC and YOLO labels and the detector scored against them) and
 //! [`cli`] (the command line, and the flag groups and steps the simulator-driven tools
@@ -44,6 +45,7 @@
 mod agent;
 pub mod builtin;
 mod calibration;
+mod camera_counters;
 pub mod cli;
 mod detection;
 mod image;
@@ -54,6 +56,7 @@ mod projection;
 mod runtime;
 #[cfg(test)]
 mod test_fixtures;
+mod view;
 
 pub use agent::{Agent, FrameInput, PipelineConfig};
 pub use calibration::calibrate::{Board, Calibration, LensModel, calibrate_with, detect_views};
@@ -76,7 +79,7 @@ pub use io::image_io::{
 pub use io::ros_msg;
 #[cfg(any(test, feature = "test-support"))]
 pub use io::ros_msg_fixtures;
-pub use pipeline::ValidationConfig;
+pub use pipeline::{FrameResult, ScoredCandidate, ValidationConfig};
 pub use runtime::frame::{RobotState, StoredFrame};
 pub use runtime::models::{
     ClassifierArgs, DetectorPreset, candidate_net as load_candidate_net,
@@ -88,3 +91,4 @@ pub use runtime::timer::StageTimer;
 pub use runtime::{
     FrameHook, FrameReport, RunArgs, Source, Summary as RunSummary, run as run_agent, wall_now,
 };
+pub use view::{VIEW_JPEG_TARGET_BYTES, ViewError, camera_view};

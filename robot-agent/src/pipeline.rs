@@ -14,7 +14,9 @@
 //!
 //! Of the candidates that pass, the most probable is the frame's sighting, and its
 //! classifier probability (calibrated by the classifier) is the sighting's confidence.
-//! Rejections are kept with their reasons so the agent can count them.
+//! Rejections are kept with their reasons so the agent can count them, and every scored
+//! candidate's fate (the ball, a runner-up, or rejected and why) with the stage that
+//! proposed it, for the camera's view.
 
 use crate::calibration::camera::CameraModel;
 use crate::detection::detect::{Candidate, CandidateClassifier, DetectError, Detector, StageClock};
@@ -24,7 +26,7 @@ use crate::projection::{
     FloorPoint, ImageBall, ProjectionError, ProjectionNoise, angular_radius_from_image_radius,
     project_ball,
 };
-use proto::{Camera, HeadJoints, Pitch, Pose2};
+use proto::{Camera, CandidateOutcome, CandidateStage, HeadJoints, Pitch, Pose2};
 use serde::{Deserialize, Serialize};
 
 /// Settings of projection and world validation.
@@ -116,6 +118,21 @@ pub struct Sighting {
     pub floor: FloorPoint,
 }
 
+/// One scored candidate and what became of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScoredCandidate {
+    /// Centre and radius in the frame's pixels.
+    pub circle: Circle,
+    /// The classifier's probability that it is the ball.
+    pub probability: f64,
+    /// The detector stage that proposed it.
+    pub stage: CandidateStage,
+    /// The frame's ball, a valid runner-up, or rejected.
+    pub outcome: CandidateOutcome,
+    /// With `outcome` `Rejected`: [`Rejection::reason`].
+    pub reason: Option<&'static str>,
+}
+
 /// The outcome of one frame.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FrameResult {
@@ -123,6 +140,8 @@ pub struct FrameResult {
     pub rejected: Vec<(Circle, Rejection)>,
     /// Every candidate the classifier scored, with its probability, most probable first.
     pub scored: Vec<(Circle, f64)>,
+    /// The same candidates with their stage and fate, most probable first.
+    pub candidates: Vec<ScoredCandidate>,
 }
 
 /// Detection, projection and validation of one camera frame.
@@ -149,12 +168,26 @@ pub fn process_frame(
         result
             .scored
             .push((candidate.circle, candidate.probability));
-        match validate(candidate, noise, validation, ctx) {
-            Ok(sighting) if result.sighting.is_none() => result.sighting = Some(sighting),
+        let (outcome, reason) = match validate(candidate, noise, validation, ctx) {
+            Ok(sighting) if result.sighting.is_none() => {
+                result.sighting = Some(sighting);
+                (CandidateOutcome::Ball, None)
+            }
             // Candidates come most probable first: later valid ones are runners-up.
-            Ok(_) => {}
-            Err(why) => result.rejected.push((candidate.circle, why)),
-        }
+            Ok(_) => (CandidateOutcome::RunnerUp, None),
+            Err(why) => {
+                let reason = why.reason();
+                result.rejected.push((candidate.circle, why));
+                (CandidateOutcome::Rejected, Some(reason))
+            }
+        };
+        result.candidates.push(ScoredCandidate {
+            circle: candidate.circle,
+            probability: candidate.probability,
+            stage: candidate.stage,
+            outcome,
+            reason,
+        });
     }
     clock.mark("project");
     Ok(result)

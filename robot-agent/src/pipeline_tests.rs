@@ -171,3 +171,45 @@ fn the_shared_ball_is_predicted_where_the_detector_finds_it() {
     });
     assert!(predicted_circle(&ctx, &cfg).is_none());
 }
+
+#[test]
+fn every_scored_candidate_has_its_stage_and_fate() {
+    // Two balls on the pitch: the more probable is the ball, the other a runner-up.
+    let near = frame(&POSE, [0.5, 0.6], 0.04, 1.0);
+    let far = frame(&POSE, [1.2, 1.1], 0.04, 1.0);
+    let background = [120, 118, 112];
+    let data: Vec<u8> = near
+        .data()
+        .chunks(3)
+        .zip(far.data().chunks(3))
+        .flat_map(|(a, b)| if a == background { b } else { a }.to_vec())
+        .collect();
+    let both = RgbImage::new(640, 360, data).unwrap();
+    let found = run(POSE, &both, None);
+    assert_eq!(found.candidates.len(), found.scored.len());
+    let outcomes: Vec<CandidateOutcome> = found.candidates.iter().map(|c| c.outcome).collect();
+    assert_eq!(outcomes[0], CandidateOutcome::Ball, "{found:?}");
+    assert!(outcomes.contains(&CandidateOutcome::RunnerUp), "{found:?}");
+    let ball = &found.candidates[0];
+    assert_eq!(ball.circle, found.sighting.unwrap().circle);
+    assert_eq!((ball.stage, ball.reason), (CandidateStage::Colour, None));
+    for (c, (circle, p)) in found.candidates.iter().zip(&found.scored) {
+        assert_eq!((c.circle, c.probability), (*circle, *p));
+    }
+    // A ball beyond the wall: every candidate rejected, with the reasons of `rejected`.
+    let pose = Pose2 {
+        x_m: 1.5,
+        y_m: 0.0,
+        theta_rad: 0.0,
+    };
+    let beyond = run(pose, &frame(&pose, [2.6, 0.5], 0.04, 1.0), None);
+    assert!(
+        beyond
+            .candidates
+            .iter()
+            .all(|c| c.outcome == CandidateOutcome::Rejected)
+    );
+    let reasons: Vec<&str> = beyond.candidates.iter().filter_map(|c| c.reason).collect();
+    let expected: Vec<&str> = beyond.rejected.iter().map(|(_, r)| r.reason()).collect();
+    assert_eq!(reasons, expected);
+}

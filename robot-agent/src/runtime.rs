@@ -13,6 +13,7 @@
 //! - [`live_ros`]: a running MiRo's ROS topics over Zenoh as a live source.
 //! - [`models`]: calibrations, pipeline settings and the ball classifier from files.
 //! - [`timer`]: per-stage timings for the status.
+//! - `views`: the camera views' pacing and their encoder thread.
 
 pub mod frame;
 pub mod frames_io;
@@ -23,6 +24,7 @@ pub mod ros_frames;
 mod run;
 pub mod source;
 pub mod timer;
+mod views;
 
 pub use perceive::{FrameHook, FrameReport, Summary};
 pub use run::{RunArgs, Source, run};

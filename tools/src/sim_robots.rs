@@ -106,6 +106,7 @@ fn status_of(track: &RobotTrack, t_s: f64, stamp: Stamp, fps: f64) -> RobotStatu
         fps,
         timings: Vec::new(),
         footprints: Vec::new(),
+        cameras: Vec::new(),
     }
 }
 
@@ -169,6 +170,7 @@ async fn play_robot(
     let end = plan.deliveries.last().map(|(a, _)| *a).unwrap_or(run_start);
     let mut next_status = run_start;
     let mut sent = 0;
+    let mut perception = ModelledPerception::default();
     let mut obs = plan.deliveries.into_iter().peekable();
     loop {
         let next_obs = obs.peek().map(|(a, _)| *a);
@@ -185,16 +187,61 @@ async fn play_robot(
         }
         if is_status {
             let t_s = due.secs_since(run_start);
-            let s = status_of(&plan.track, t_s, due, sim::model::FRAME_RATE_HZ);
+            let mut s = status_of(&plan.track, t_s, due, sim::model::FRAME_RATE_HZ);
+            s.cameras = perception.report(t_s, sim::model::FRAME_RATE_HZ);
             let _ = status_pub.put(proto::encode(&s)).await;
             next_status = next_status.offset_secs(status_dt_s);
         } else if let Some((_, o)) = obs.next()
             && obs_pub.put(proto::encode(&o)).await.is_ok()
         {
+            perception.published(o.camera);
             sent += 1;
         }
     }
     Ok(sent)
+}
+
+/// A simulated robot's camera counters: its cameras run at the model's frame rate, and each
+/// modelled sighting it publishes is one candidate and one ball (the model has no
+/// candidates it rejects, and no pipeline whose time it could report: `detector_ms` is 0).
+#[derive(Debug, Clone, Default, PartialEq)]
+struct ModelledPerception {
+    balls: [u64; 2],
+    /// At the last report: its time, and the balls then.
+    last: Option<(f64, [u64; 2])>,
+}
+
+impl ModelledPerception {
+    fn published(&mut self, camera: proto::Camera) {
+        self.balls[usize::from(camera == proto::Camera::Right)] += 1;
+    }
+
+    /// Both cameras' counters at match time `t_s`, the rates over the time since the last
+    /// report.
+    fn report(&mut self, t_s: f64, frame_rate_hz: f64) -> Vec<proto::CameraPerception> {
+        let (t0, before) = self.last.unwrap_or((0.0, [0, 0]));
+        let dt_s = (t_s - t0).max(1e-6);
+        self.last = Some((t_s, self.balls));
+        [proto::Camera::Left, proto::Camera::Right]
+            .into_iter()
+            .enumerate()
+            .map(|(i, camera)| {
+                let new_balls = (self.balls[i] - before[i]) as f64;
+                let frames = dt_s * frame_rate_hz;
+                proto::CameraPerception {
+                    camera,
+                    frames: (t_s.max(0.0) * frame_rate_hz) as u64,
+                    candidates: self.balls[i],
+                    balls: self.balls[i],
+                    rejections: Default::default(),
+                    frames_per_s: frame_rate_hz,
+                    candidates_per_frame: new_balls / frames.max(1.0),
+                    balls_per_s: new_balls / dt_s,
+                    detector_ms: 0.0,
+                }
+            })
+            .collect()
+    }
 }
 
 /// Runs the simulated robots until the match ends (or every match, with `repeat`, until
@@ -284,4 +331,36 @@ pub async fn run_on(
         let _ = session.close().await;
     }
     Ok(total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn modelled_counters_follow_the_published_sightings() {
+        let mut p = ModelledPerception::default();
+        for _ in 0..3 {
+            p.published(proto::Camera::Left);
+        }
+        p.published(proto::Camera::Right);
+        let first = p.report(1.0, 15.0);
+        assert_eq!(
+            (first[0].frames, first[0].balls, first[1].balls),
+            (15, 3, 1)
+        );
+        assert!((first[0].balls_per_s - 3.0).abs() < 1e-9);
+        p.published(proto::Camera::Left);
+        let second = p.report(1.5, 15.0);
+        assert!(
+            (second[0].balls_per_s - 2.0).abs() < 1e-9,
+            "one ball in half a second"
+        );
+        assert_eq!(second[1].balls_per_s, 0.0);
+        assert!(
+            second
+                .iter()
+                .all(|c| c.rejections.is_empty() && c.frames == 22)
+        );
+    }
 }

@@ -1,15 +1,17 @@
 // The coach's page in a real browser (Debian's Chromium driven by playwright-core).
 //
-// Live: a server and ten simulated MiRos in two processes (nine, and one to kill) on
-// loopback. The ball is drawn where /api/state says and moves; every reporting robot's
+// Live: a server (recording a match log) and ten simulated MiRos in three processes: eight
+// modelled, one to kill, and one running the real agent on rendered cameras (its camera
+// views: views.check.mjs) on loopback. The ball is drawn where /api/state says and moves; every reporting robot's
 // sightings are drawn as ellipses; a click on a robot shows its intercept; the killed robot
 // turns grey within a second; a frozen server is marked stale and a restarted one is
 // reconnected to; the frame rate is measured; screenshots at desktop and phone sizes.
 // Replay: a simulated match log played as if live; the timeline seeks, the clock follows,
-// pause and speed work. No console errors (except while the server is deliberately down).
+// pause and speed work; then the recorded live log, with the agent's camera views at the
+// replay clock. No console errors (except while the server is deliberately down).
 //
 //   FUSION_SERVER=target/debug/fusion-server node web/tests/page.test.mjs
-import { mkdirSync, mkdtempSync, rmSync } from "node:fs";
+import { mkdirSync, mkdtempSync, readdirSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { chromium } from "playwright-core";
@@ -17,10 +19,13 @@ import {
   bin, browserArgs, toolBin, browserPath, check, fail, failed, freePort, getJson, killAll, lineOf, sleep, start, stop, until,
 } from "./support.mjs";
 import { replayChecks } from "./replay.check.mjs";
+import { liveViewChecks, replayViewChecks } from "./views.check.mjs";
 
 const SHOTS = "out/screenshots";
 const ROBOTS = 10;
 const VICTIM = `miro${ROBOTS}`;
+/// The robot that runs the real agent (cameras, views) instead of the modelled observer.
+const AGENT = `miro${ROBOTS - 1}`;
 const GREY = "#9e9e9e";
 const watchdog = setTimeout(() => {
   fail("the browser test took longer than 6 minutes");
@@ -42,22 +47,27 @@ function watchErrors(page, errors, phase) {
   });
 }
 
-async function startServer(httpPort, zenohPort) {
+async function startServer(httpPort, zenohPort, recordDir = null) {
   const server = start(["serve", "--open", "--http", `127.0.0.1:${httpPort}`, "--listen", `tcp/127.0.0.1:${zenohPort}`,
-    "--id", "web-test"], "server");
+    "--id", "web-test", ...(recordDir ? ["--record", recordDir] : [])], "server");
   const url = await lineOf(server, /^(http:\/\/\S+\/)$/m);
   return { server, url };
 }
 
-async function liveChecks(browser) {
+/// The live checks; the match log the first server recorded (its files, in order) and the
+/// stamps of views seen with the ball.
+async function liveChecks(browser, recordDir) {
   const [httpPort, zenohPort] = [await freePort(), await freePort()];
-  let { server, url } = await startServer(httpPort, zenohPort);
+  let { server, url } = await startServer(httpPort, zenohPort, recordDir);
   const startNs = (BigInt(Date.now()) * 1_000_000n + 2_000_000_000n).toString();
-  const robotArgs = (only) => ["--connect", `tcp/127.0.0.1:${zenohPort}`, "--scenario", "match",
-    "--seed", "2", "--team-size", String(ROBOTS), "--duration-s", "240", "--start-ns", startNs, "--only", only];
-  const others = Array.from({ length: ROBOTS - 1 }, (_, i) => `miro${i + 1}`).join(",");
+  // One simulated match for every process: the agent's cameras see the others' ball.
+  const matchArgs = ["--connect", `tcp/127.0.0.1:${zenohPort}`, "--scenario", "match",
+    "--seed", "2", "--team-size", String(ROBOTS), "--duration-s", "240", "--start-ns", startNs];
+  const robotArgs = (only) => [...matchArgs, "--only", only];
+  const others = Array.from({ length: ROBOTS - 2 }, (_, i) => `miro${i + 1}`).join(",");
   const team = start(robotArgs(others), "robots", toolBin("sim_robots"));
   const victim = start(robotArgs(VICTIM), VICTIM, toolBin("sim_robots"));
+  const agent = start([...matchArgs, "--robot-id", AGENT], AGENT, toolBin("sim_agent"));
 
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   const errors = [];
@@ -147,6 +157,7 @@ async function liveChecks(browser) {
     check(text.includes(pick[0]) && text.includes("meets the ball"),
       `click on ${pick[0]}: intercept in ${icpt.t_s.toFixed(2)} s at (${icpt.point_m.map((v) => v.toFixed(2)).join(", ")}) m, "${text}"`);
   }
+  await labelChecks(page);
 
   mkdirSync(SHOTS, { recursive: true });
   await page.screenshot({ path: `${SHOTS}/desktop.png` });
@@ -162,6 +173,9 @@ async function liveChecks(browser) {
     `phone size: the panel is below the pitch (pitch ${field.width.toFixed(0)} px wide)`);
   await page.screenshot({ path: `${SHOTS}/phone.png`, fullPage: true });
   await page.setViewportSize({ width: 1280, height: 800 });
+
+  // What the agent's cameras see; it stays chosen (its views' stream reconnects below too).
+  const ballStamps = await liveViewChecks(page, AGENT, "miro1", SHOTS);
 
   // A robot killed turns grey within a second.
   const killedAt = Date.now();
@@ -188,6 +202,7 @@ async function liveChecks(browser) {
     .catch(() => fail("not live again after the server resumed"));
   phase.expectErrors = true;
   await stop(server);
+  const log = readdirSync(recordDir).filter((f) => f.endsWith(".mcap")).sort().map((f) => join(recordDir, f));
   await page.waitForFunction(() => window.__teamBall.connection === "down", null, { timeout: 5000 })
     .catch(() => fail("no disconnected mark while the server was down"));
   ({ server } = await startServer(httpPort, zenohPort));
@@ -196,20 +211,48 @@ async function liveChecks(browser) {
     before, { timeout: 15_000 })
     .then(() => check(true, "the page reconnected to the restarted server by itself"))
     .catch(() => fail("the page did not reconnect to the restarted server"));
+  await page.waitForFunction(() => window.__teamBall.viewStream === "live", null, { timeout: 10_000 })
+    .then(() => check(true, "the camera views' stream reconnected too"))
+    .catch(() => fail("the camera views' stream did not reconnect to the restarted server"));
   phase.expectErrors = false;
   await sleep(500);
   check(errors.length === 0, `no console errors on the live page${errors.length ? `: ${errors.join("; ")}` : ""}`);
   await page.close();
-  await Promise.all([stop(team), stop(server)]);
-  return fps;
+  await Promise.all([stop(team), stop(agent), stop(server)]);
+  return { fps, log, ballStamps };
+}
+
+/// The stop's and the intercept's labels on the pitch cover neither each other nor the ball:
+/// as drawn now, and for the worst case (both at the ball) through the page's own layout.
+async function labelChecks(page) {
+  const s = await tb(page);
+  const [stopL, icptL] = ["stop", "intercept"].map((k) => (s.labels || []).find((l) => l.kind === k));
+  const ballBox = s.ball && { x: s.ball.px - s.ball.radius_px, y: s.ball.py - s.ball.radius_px, w: 2 * s.ball.radius_px, h: 2 * s.ball.radius_px };
+  const hit = (a, b) => a && b && a.x < b.x + b.w && b.x < a.x + a.w && a.y < b.y + b.h && b.y < a.y + a.h;
+  check(icptL && !hit(stopL, icptL) && !hit(icptL, ballBox) && !hit(stopL, ballBox),
+    `pitch labels apart: "${icptL && icptL.text}"${stopL ? ` and "${stopL.text}"` : ""} cover neither each other nor the ball`);
+  const worst = await page.evaluate(async () => {
+    const { LabelLayout, overlaps } = await import("/labels.js");
+    const layout = new LabelLayout({ x: 0, y: 0, w: 400, h: 300 });
+    layout.block({ x: 195, y: 145, w: 10, h: 10 });
+    const a = layout.place(200, 150, 60, 13);
+    const b = layout.place(200, 150, 70, 13);
+    return !overlaps(a, b) && !overlaps(a, { x: 195, y: 145, w: 10, h: 10 }) && !overlaps(b, { x: 195, y: 145, w: 10, h: 10 });
+  });
+  check(worst, "two labels at one point over the ball are placed apart");
 }
 
 const browser = await chromium.launch({ executablePath: browserPath, args: browserArgs });
 const workDir = mkdtempSync(join(tmpdir(), "team-ball-web-"));
 try {
   console.log(`server binary: ${bin}`);
-  const fps = await liveChecks(browser);
+  const recordDir = join(workDir, "recorded");
+  mkdirSync(recordDir);
+  const { fps, log, ballStamps } = await liveChecks(browser, recordDir);
   await replayChecks(browser, workDir, SHOTS);
+  if (check(log.length > 0 && ballStamps.length > 0, `the live server recorded ${log.length} log file(s)`)) {
+    await replayViewChecks(browser, log, AGENT, ballStamps, SHOTS);
+  }
   if (!failed()) console.log(`all browser checks passed; ${ROBOTS} robots drawn at ${fps.toFixed(1)} frames/s; screenshots in ${SHOTS}/`);
 } catch (e) {
   fail(e.stack || e.message);

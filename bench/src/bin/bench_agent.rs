@@ -1,5 +1,7 @@
 //! `bench_agent`: the robot agent's perception pipeline's time per frame on one core, by
-//! stage, on frames rendered from simulated matches; and the renderer's own speed.
+//! stage, on frames rendered from simulated matches; the cost of a camera view (downscale,
+//! JPEG and annotations, built on its own thread in the agent); and the renderer's own
+//! speed.
 //!
 //! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--detector colour|net|two-stage`, `--classifier MODEL`,
 //! `--doc FILE`.
@@ -10,7 +12,7 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use proto::{Camera, Pitch};
+use proto::{Camera, Pitch, Stamp};
 use robot_agent::RgbImage;
 use robot_agent::StageClock;
 use robot_agent::{Agent, FrameInput, PipelineConfig};
@@ -83,9 +85,100 @@ impl StageClock for Recorder<'_> {
     }
 }
 
+/// Frames whose views are timed (spread over the run).
+const VIEW_SAMPLES: usize = 60;
+
+/// The agent's default views per second per camera (`--view-hz`).
+const VIEW_HZ: f64 = 2.0;
+
 /// The `q` quantile of the times (the workspace's one definition); NaN for none.
 fn quantile(v: &[f64], q: f64) -> f64 {
     proto::stats::quantile(v, q).unwrap_or(f64::NAN)
+}
+
+/// A frame whose view is timed, with the pipeline's outcome and time on it.
+struct ViewSample<'a> {
+    stamp: Stamp,
+    camera: Camera,
+    image: &'a RgbImage,
+    robot_id: &'a str,
+    result: robot_agent::FrameResult,
+    pipeline_ms: f64,
+}
+
+/// What building a camera view costs.
+#[derive(Debug)]
+struct ViewCost {
+    /// Views built.
+    count: usize,
+    /// Median time to build one, milliseconds.
+    median_ms: f64,
+    /// Median JPEG size, bytes.
+    median_bytes: f64,
+    /// The views' size, pixels.
+    size_px: (u32, u32),
+    /// Median time the perception thread spends handing a frame over (its copy and its
+    /// candidates), milliseconds.
+    handoff_ms: f64,
+}
+
+impl ViewCost {
+    /// The line of the report: the view's time, and that time as a share of the
+    /// pipeline's at `--view-hz 2` per camera against frames at `fps` per camera.
+    fn line(&self, fps: f64, pipeline_ms: f64) -> String {
+        let share = self.median_ms * VIEW_HZ / fps / pipeline_ms * 100.0;
+        let core = self.median_ms * VIEW_HZ * 2.0 / 1e3 * 100.0;
+        let handoff = self.handoff_ms * VIEW_HZ / fps / pipeline_ms * 100.0;
+        format!(
+            "A camera view (640×360 frame area-averaged to {}×{}, JPEG, its candidates; {} views, median {:.1} kB) takes {:.2} ms median to build, on the agent's view thread, which this keeps {core:.2} % busy for both cameras at the default {VIEW_HZ} views a second per camera (were it on the perception thread, it would add {share:.1} % to the pipeline's time per frame at the frames' {fps:.1} frames a second per camera). The perception thread itself only copies a frame and its candidates when a view is due: {:.3} ms median, {handoff:.2} % of the pipeline's time per frame (copy ms × {VIEW_HZ} Hz ÷ frames a second ÷ pipeline ms per frame × 100).\n\n",
+            self.size_px.0,
+            self.size_px.1,
+            self.count,
+            self.median_bytes / 1e3,
+            self.median_ms,
+            self.handoff_ms,
+        )
+    }
+}
+
+/// Times the view of every sampled frame.
+fn time_views(samples: &[ViewSample<'_>]) -> Result<ViewCost> {
+    let mut ms = Vec::with_capacity(samples.len());
+    let mut bytes = Vec::with_capacity(samples.len());
+    let mut size_px = (0, 0);
+    let mut handoff = Vec::with_capacity(samples.len());
+    for (seq, v) in samples.iter().enumerate() {
+        let started = Instant::now();
+        let copied = std::hint::black_box((v.image.clone(), v.result.clone()));
+        handoff.push(started.elapsed().as_secs_f64() * 1e3);
+        drop(copied);
+        let started = Instant::now();
+        let view = robot_agent::camera_view(
+            v.robot_id,
+            seq as u64,
+            v.camera,
+            v.stamp,
+            v.image,
+            &v.result,
+            v.pipeline_ms,
+        )?;
+        ms.push(started.elapsed().as_secs_f64() * 1e3);
+        bytes.push(view.jpeg()?.len() as f64);
+        size_px = (view.width_px, view.height_px);
+    }
+    Ok(ViewCost {
+        count: ms.len(),
+        median_ms: quantile(&ms, 0.5),
+        median_bytes: quantile(&bytes, 0.5),
+        size_px,
+        handoff_ms: quantile(&handoff, 0.5),
+    })
+}
+
+/// Frames a second of each camera, from a match's frame times (seconds).
+fn frame_rate_hz(times_s: &[f64]) -> Option<f64> {
+    let (first, last) = (times_s.first()?, times_s.last()?);
+    (last > first).then(|| (times_s.len() - 1) as f64 / (last - first))
 }
 
 fn main() -> Result<()> {
@@ -96,6 +189,7 @@ fn main() -> Result<()> {
     config.detector = args.detector.apply(config.detector);
     let mut frames = Vec::new();
     let mut render_s = 0.0;
+    let mut frame_rates = Vec::new();
     for m in 0..args.matches {
         let cfg = sim::SimConfig {
             duration_s: Some(args.seconds),
@@ -107,7 +201,9 @@ fn main() -> Result<()> {
             ..CameraWorldConfig::default()
         };
         let world = CameraWorld::new(&run, &rig, cam, 100 + m);
-        for (k, t) in world.frame_times().enumerate() {
+        let times: Vec<f64> = world.frame_times().collect();
+        frame_rates.extend(frame_rate_hz(&times));
+        for (k, t) in times.into_iter().enumerate() {
             for r in &run.robots {
                 let started = Instant::now();
                 let capture = world.capture(&r.id, t, k as u64);
@@ -138,7 +234,10 @@ fn main() -> Result<()> {
     let mut stages = Stages::default();
     let mut totals = Vec::with_capacity(frames.len());
     let mut agents: BTreeMap<String, Agent> = BTreeMap::new();
-    for (stamp, camera, image, reading, id) in &frames {
+    // Some frames' outcomes, with their pipeline times, to time their views after.
+    let view_every = (frames.len() / VIEW_SAMPLES).max(1);
+    let mut view_samples = Vec::with_capacity(VIEW_SAMPLES + 1);
+    for (k, (stamp, camera, image, reading, id)) in frames.iter().enumerate() {
         let agent = match agents.get_mut(id) {
             Some(a) => a,
             None => {
@@ -163,9 +262,22 @@ fn main() -> Result<()> {
             stages: &mut stages,
             last: started,
         };
-        agent.on_frame(&input, &mut clock).context("pipeline")?;
-        totals.push(started.elapsed().as_secs_f64() * 1e3);
+        let outcome = agent.on_frame(&input, &mut clock).context("pipeline")?;
+        let ms = started.elapsed().as_secs_f64() * 1e3;
+        totals.push(ms);
+        if k % view_every == 0 {
+            view_samples.push(ViewSample {
+                stamp: *stamp,
+                camera: *camera,
+                image,
+                robot_id: id,
+                result: outcome.result,
+                pipeline_ms: ms,
+            });
+        }
     }
+    let views = time_views(&view_samples)?;
+    let fps = quantile(&frame_rates, 0.5);
     let observations: u64 = agents.values().map(Agent::observations).sum();
     let mut rows = Vec::new();
     for stage in &stages.order {
@@ -188,6 +300,7 @@ fn main() -> Result<()> {
     let met = if median <= 2.0 { "met" } else { "missed" };
     table += &format!("| **whole pipeline** | **{median:.3}** | **{p99:.3}** |\n\n");
     table += &format!("Target: ≤ 2 ms per frame median for the whole pipeline: {met}.\n\n");
+    table += &views.line(fps, median);
     table += &format!(
         "The camera renderer (640×360, the ball and the other robots in view, sensor noise) renders {render_fps:.0} camera frames per second on one core (target ≥ 100).\n"
     );

@@ -81,6 +81,7 @@ pub fn status(robot_id: &str) -> RobotStatus {
             camera: Camera::Left,
             polygon_m: vec![[0.6, 0.0], [1.5, -0.6], [1.5, 0.6]],
         }],
+        cameras: Vec::new(),
     }
 }
 

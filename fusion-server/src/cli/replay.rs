@@ -167,7 +167,9 @@ pub async fn realtime(a: ReplayArgs) -> Result<()> {
     if cfg.net.listen.is_empty() {
         cfg.net.listen = vec!["tcp/127.0.0.1:7447".into()];
     }
-    let messages = read(&a.files)?;
+    let mut messages = read(&a.files)?;
+    // A log keeps a view's image apart from its metadata: made whole to be re-sent.
+    crate::camera_views::images::rejoin(&mut messages);
     let (Some(first), Some(last)) = (messages.first(), messages.last()) else {
         anyhow::bail!("the log holds no messages");
     };

@@ -110,6 +110,7 @@ fn statuses_and_liveliness_update_the_roster() {
         fps: 15.0,
         timings: vec![],
         footprints: vec![],
+        cameras: vec![],
     };
     assert!(
         e.status(Some("miro1"), &proto::encode(&status), at(0.5))
@@ -341,6 +342,22 @@ fn the_largest_valid_status_fits_the_byte_cap() {
             proto::CameraFootprint {
                 camera: Camera::Right,
                 polygon_m: vec![[v, v]; proto::MAX_FOOTPRINT_POINTS],
+            };
+            proto::MAX_STATUS_FOOTPRINTS
+        ],
+        cameras: vec![
+            proto::CameraPerception {
+                camera: Camera::Right,
+                frames: u64::MAX,
+                candidates: u64::MAX,
+                balls: u64::MAX,
+                rejections: (0..proto::MAX_REJECTION_REASONS)
+                    .map(|k| (format!("{k:0>w$}", w = proto::MAX_REASON_BYTES), u64::MAX))
+                    .collect(),
+                frames_per_s: v,
+                candidates_per_frame: v,
+                balls_per_s: v,
+                detector_ms: v,
             };
             proto::MAX_STATUS_FOOTPRINTS
         ],

@@ -20,7 +20,7 @@ mod states_csv;
 mod summary;
 mod times;
 
-pub use seek::{Seeker, is_input};
+pub use seek::{Seeker, is_input, is_view, views_before};
 pub use states_csv::StatesCsv;
 pub use summary::{ReplayOutputs, summary_json, summary_text};
 use times::Schedule;
@@ -246,6 +246,14 @@ pub fn replay(
             emit_state(&engine, &keys, t, (true, false), &mut out);
         }
         let robot = keys.robot_id_of(&m.topic);
+        // A log holds no liveliness tokens: a robot is online from its first input on (as
+        // in a replay played as if live, whose player declares its token then).
+        if let Some(id) = robot
+            && seek::is_input(m)
+            && !engine.is_online(id)
+        {
+            engine.liveliness(id, true, at).ok();
+        }
         match m.schema_name.as_str() {
             "Observation" => {
                 out.report.observations += 1;

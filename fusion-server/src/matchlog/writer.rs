@@ -15,6 +15,7 @@ pub fn schemas() -> HashMap<String, Arc<Schema>> {
     crate::matchlog::record::proto_schemas()
         .into_iter()
         .chain(crate::scene::schemas())
+        .chain(crate::camera_views::images::schemas())
         .map(|s| (s.name.clone(), s))
         .collect()
 }
@@ -27,6 +28,9 @@ pub fn schema_name(kind: LogKind) -> &'static str {
         LogKind::BallState => "BallState",
         LogKind::Scene => crate::scene::SCENE_SCHEMA,
         LogKind::Transforms => crate::scene::TRANSFORMS_SCHEMA,
+        LogKind::View => crate::camera_views::images::VIEW_SCHEMA,
+        LogKind::Image => crate::camera_views::images::IMAGE_SCHEMA,
+        LogKind::Annotations => crate::camera_views::images::ANNOTATIONS_SCHEMA,
     }
 }
 

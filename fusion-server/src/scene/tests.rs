@@ -197,4 +197,16 @@ fn the_foxglove_layout_in_the_docs_opens_on_this_scene() {
         text.contains(&state.replace('"', "\\\"")),
         "plots the ball state"
     );
+    // A robot's two cameras, each with its annotations.
+    for camera in [proto::Camera::Left, proto::Camera::Right] {
+        let v = proto::test_support::camera_view("miro1", camera, 0, Stamp(0));
+        let image = &layout["configById"][format!("Image!{}", proto::camera_chunk(camera))];
+        let mode = &image["imageMode"];
+        assert_eq!(
+            mode["imageTopic"],
+            crate::camera_views::images::image_topic(&v)
+        );
+        let annotations = crate::camera_views::images::annotations_topic(&v);
+        assert_eq!(mode["annotations"][annotations]["visible"], true);
+    }
 }

@@ -42,6 +42,8 @@ pub struct RecordFile {
     pub max_minutes: Option<f64>,
     /// Finish a chunk at least this often (bounds what a crash can lose).
     pub flush_interval_s: Option<f64>,
+    /// Keep the robots' camera views in the log (default true).
+    pub views: Option<bool>,
 }
 
 impl RecordFile {
@@ -112,6 +114,11 @@ pub struct LimitsFile {
     pub http_idle_timeout_s: Option<f64>,
     /// Seconds a live-stream frame may take to send before the client is dropped.
     pub ws_send_timeout_s: Option<f64>,
+    /// Largest camera view payload, bytes.
+    pub max_view_bytes: Option<usize>,
+    /// Camera views a robot may send per second (all its cameras), and at once above that.
+    pub view_rate_hz: Option<f64>,
+    pub view_burst: Option<f64>,
 }
 
 impl LimitsFile {
@@ -162,6 +169,22 @@ impl LimitsFile {
         }
         if let Some(v) = self.established_messages {
             a.established_messages = v;
+        }
+        let views = &mut cfg.views;
+        if let Some(v) = self.max_view_bytes {
+            if !(1024..=proto::MAX_VIEW_PAYLOAD_BYTES).contains(&v) {
+                return Err(ConfigError::Invalid(format!(
+                    "limits.max_view_bytes must be in 1024..={}, got {v}",
+                    proto::MAX_VIEW_PAYLOAD_BYTES
+                )));
+            }
+            views.max_payload_bytes = v;
+        }
+        if let Some(v) = self.view_rate_hz {
+            views.rate_hz = positive("limits.view_rate_hz", v)?;
+        }
+        if let Some(v) = self.view_burst {
+            views.burst = positive("limits.view_burst", v)?.max(1.0);
         }
         Ok(())
     }
@@ -319,6 +342,9 @@ impl Settings {
             cfg.engine.fusion.set_pitch(p.clone());
         }
         self.limits.apply(cfg)?;
+        if let Some(v) = self.record.views {
+            cfg.record_views = v;
+        }
         if let Some(v) = self.clock.latency_floor_s {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(ConfigError::Invalid(format!(

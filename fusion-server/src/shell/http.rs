@@ -30,6 +30,9 @@ const WEB: &[(&str, &str, &[u8])] = &[
     ("/panel.js", JS, include_bytes!("../../../web/panel.js")),
     ("/replay.js", JS, include_bytes!("../../../web/replay.js")),
     ("/chart.js", JS, include_bytes!("../../../web/chart.js")),
+    ("/labels.js", JS, include_bytes!("../../../web/labels.js")),
+    ("/views.js", JS, include_bytes!("../../../web/views.js")),
+    ("/camera.js", JS, include_bytes!("../../../web/camera.js")),
     (
         "/page.css",
         "text/css; charset=utf-8",
@@ -56,6 +59,10 @@ pub fn app(live: Arc<Live>) -> Router {
         .route("/api/predict", get(predict))
         .route("/api/intercept", get(intercept))
         .route("/api/stream", get(stream))
+        .route("/api/views", get(views::list))
+        .route("/api/views/stream", get(views::stream))
+        .route("/api/robots/{id}/view/{camera}", get(views::one))
+        .route("/api/robots/{id}/view/{camera}/image", get(views::image))
         .route("/api/replay", get(control::status))
         .route("/api/replay/{action}", post(control::steer))
         .route("/healthz", get(health))
@@ -231,6 +238,7 @@ async fn send_within(
 
 mod control;
 pub mod guard;
+mod views;
 
 #[cfg(test)]
 mod tests;

@@ -13,6 +13,7 @@ use crate::scene::{Scene, SceneRecord};
 use crate::shell::foxglove::FoxgloveHub;
 use crate::shell::metrics::ShellStats;
 use crate::shell::replay_live::{ReplayControl, ReplayStatus};
+use crate::shell::views::ViewHub;
 use proto::{BallState, KeySpace, Pitch, Stamp};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -115,6 +116,8 @@ pub struct Live {
     ws_send_timeout: OnceLock<Duration>,
     /// The Foxglove WebSocket's channels and queue, when it is served.
     foxglove: OnceLock<Arc<FoxgloveHub>>,
+    /// The robots' camera views.
+    pub views: ViewHub,
 }
 
 impl Live {
@@ -127,6 +130,7 @@ impl Live {
         log: Option<Arc<dyn MatchLog>>,
     ) -> Self {
         let (stream, _) = broadcast::channel(stream_buffer.max(1));
+        let keys_for_views = keys.clone();
         Live {
             inner: Mutex::new(Inner {
                 engine,
@@ -150,6 +154,7 @@ impl Live {
             control_access: OnceLock::new(),
             ws_send_timeout: OnceLock::new(),
             foxglove: OnceLock::new(),
+            views: ViewHub::new(keys_for_views),
         }
     }
 
@@ -386,6 +391,13 @@ impl Live {
         }
     }
 
+    /// A camera view payload arrived on `key` just now; whether it was kept.
+    pub fn on_view(&self, key: &str, payload: &[u8]) -> bool {
+        let now = self.clock.now();
+        self.views
+            .on_view(key, payload, now, self.log.as_ref(), self.foxglove.get())
+    }
+
     /// A robot liveliness token under `key` appeared or went away.
     pub fn on_liveliness(&self, key: &str, alive: bool) {
         // A chunk that is not an id is refused and counted by the engine.
@@ -525,7 +537,8 @@ impl Live {
                 .record_queue_bytes
                 .store(log.queued_bytes(), Relaxed);
         }
+        let views = self.views.counts();
         let inner = self.lock();
-        crate::shell::metrics::render(&inner.engine, &self.stats, self.clock.now())
+        crate::shell::metrics::render(&inner.engine, &self.stats, &views, self.clock.now())
     }
 }

@@ -3,6 +3,7 @@
 //! counters is taken and handed to the encoder as a collector.
 
 use crate::engine::Engine;
+use crate::shell::views::ViewCounts;
 use prometheus_client::collector::Collector;
 use prometheus_client::encoding::{
     DescriptorEncoder, EncodeMetric, MetricEncoder, NoLabelSet, text::encode,
@@ -238,9 +239,10 @@ impl Collector for Snapshot {
 }
 
 /// The OpenMetrics text exposition of the engine's and the shell's counters at `now`.
-pub fn render(engine: &Engine, shell: &ShellStats, now: Stamp) -> String {
+pub fn render(engine: &Engine, shell: &ShellStats, views: &ViewCounts, now: Stamp) -> String {
     let mut registry = Registry::default();
     registry.register_collector(Box::new(snapshot(engine, shell, now)));
+    registry.register_collector(Box::new(views_snapshot(engine, views, now)));
     let mut out = String::with_capacity(8192);
     // Writing into a String cannot fail.
     let _ = encode(&mut out, &registry);
@@ -549,6 +551,136 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     }
 }
 
+/// The camera views and each robot camera's perception, as the robots report it.
+#[derive(Debug)]
+struct ViewsSnapshot {
+    counts: ViewCounts,
+    /// (robot, camera, the camera's counters).
+    cameras: Vec<(String, &'static str, proto::CameraPerception)>,
+}
+
+fn views_snapshot(engine: &Engine, views: &ViewCounts, now: Stamp) -> ViewsSnapshot {
+    let cameras = engine
+        .robots(now)
+        .into_iter()
+        .filter_map(|r| r.status.map(|s| (r.robot_id, s.cameras)))
+        .flat_map(|(robot, cams)| {
+            cams.into_iter()
+                .map(move |c| (robot.clone(), proto::camera_chunk(c.camera), c))
+        })
+        .collect();
+    ViewsSnapshot {
+        counts: views.clone(),
+        cameras,
+    }
+}
+
+impl Collector for ViewsSnapshot {
+    fn encode(&self, mut encoder: DescriptorEncoder) -> Result<(), std::fmt::Error> {
+        let c = &self.counts;
+        for (name, kind, help, v) in [
+            (
+                "rf_camera_views_received_total",
+                "counter",
+                "Camera views kept (the newest of each camera is served to the page).",
+                c.accepted,
+            ),
+            (
+                "rf_camera_views_kept",
+                "gauge",
+                "Cameras whose newest view the server holds.",
+                c.kept,
+            ),
+        ] {
+            let f = Family::new(name, kind, help);
+            f.sample(
+                encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?,
+                Value::Count(v),
+            )?;
+        }
+        let refused = Family::new(
+            "rf_camera_views_refused_total",
+            "counter",
+            "Camera views refused, by reason (too_large, bad_key, rate_limited, decode, wrong_robot, wrong_camera, stale, or a validation reason such as not_jpeg).",
+        );
+        let mut family =
+            encoder.encode_descriptor(refused.name, refused.help, None, MetricType::Counter)?;
+        for (reason, n) in &c.refused {
+            ConstCounter::new(*n).encode(family.encode_family(&[("reason", *reason)])?)?;
+        }
+        type Pick = fn(&proto::CameraPerception) -> Value;
+        let per_camera: [(&str, &str, &str, Pick); 7] = [
+            (
+                "rf_robot_camera_frames_total",
+                "counter",
+                "Frames the robot's camera pipeline processed, as the robot reports it.",
+                |c| Value::Count(c.frames),
+            ),
+            (
+                "rf_robot_camera_candidates_total",
+                "counter",
+                "Candidates the robot's classifier scored in the camera's frames.",
+                |c| Value::Count(c.candidates),
+            ),
+            (
+                "rf_robot_camera_balls_total",
+                "counter",
+                "Balls the robot published from the camera.",
+                |c| Value::Count(c.balls),
+            ),
+            (
+                "rf_robot_camera_frames_per_second",
+                "gauge",
+                "Frames a second over the robot's last status interval.",
+                |c| Value::Real(c.frames_per_s),
+            ),
+            (
+                "rf_robot_camera_candidates_per_frame",
+                "gauge",
+                "Candidates per frame over the robot's last status interval.",
+                |c| Value::Real(c.candidates_per_frame),
+            ),
+            (
+                "rf_robot_camera_balls_per_second",
+                "gauge",
+                "Balls published a second over the robot's last status interval.",
+                |c| Value::Real(c.balls_per_s),
+            ),
+            (
+                "rf_robot_camera_detector_seconds",
+                "gauge",
+                "The robot's median pipeline time per frame over its last status interval.",
+                |c| Value::Real(c.detector_ms / 1000.0),
+            ),
+        ];
+        for (name, kind, help, pick) in per_camera {
+            let f = Family::new(name, kind, help);
+            let mut family = encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?;
+            for (robot, camera, c) in &self.cameras {
+                let labels = [("robot", robot.as_str()), ("camera", *camera)];
+                f.sample(family.encode_family(&labels)?, pick(c))?;
+            }
+        }
+        let f = Family::new(
+            "rf_robot_camera_rejections_total",
+            "counter",
+            "Candidates the robot rejected in the camera's frames, by reason, as the robot reports it.",
+        );
+        let mut family = encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?;
+        for (robot, camera, c) in &self.cameras {
+            for (reason, n) in &c.rejections {
+                let labels = [
+                    ("robot", robot.as_str()),
+                    ("camera", *camera),
+                    ("reason", reason.as_str()),
+                ];
+                ConstCounter::new(*n).encode(family.encode_family(&labels)?)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -579,8 +711,48 @@ mod tests {
         let shell = ShellStats::default();
         shell.inputs_received.store(7, Relaxed);
         shell.ws_clients.store(2, Relaxed);
-        let text = render(&engine, &shell, Stamp(1_000_000_000));
+        let mut engine = engine;
+        let now = Stamp(1_700_000_000_000_000_000);
+        let status = proto::RobotStatus {
+            version: proto::VERSION,
+            robot_id: "miro1".into(),
+            stamp: now,
+            pose: proto::Pose2::default(),
+            pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-3],
+            head: proto::HeadJoints::default(),
+            fps: 15.0,
+            timings: vec![],
+            footprints: vec![],
+            cameras: vec![proto::CameraPerception {
+                camera: proto::Camera::Right,
+                frames: 40,
+                candidates: 90,
+                balls: 30,
+                rejections: [("low_probability".to_string(), 55)].into_iter().collect(),
+                frames_per_s: 15.0,
+                candidates_per_frame: 2.25,
+                balls_per_s: 11.0,
+                detector_ms: 6.5,
+            }],
+        };
+        assert!(
+            engine
+                .status(Some("miro1"), &proto::encode(&status), now)
+                .is_ok()
+        );
+        let views = ViewCounts {
+            accepted: 12,
+            refused: [("not_jpeg", 3)].into_iter().collect(),
+            kept: 2,
+        };
+        let text = render(&engine, &shell, &views, now);
         for line in [
+            "rf_camera_views_received_total 12",
+            "rf_camera_views_kept 2",
+            "rf_camera_views_refused_total{reason=\"not_jpeg\"} 3",
+            "rf_robot_camera_frames_total{robot=\"miro1\",camera=\"right\"} 40",
+            "rf_robot_camera_candidates_per_frame{robot=\"miro1\",camera=\"right\"} 2.25",
+            "rf_robot_camera_rejections_total{robot=\"miro1\",camera=\"right\",reason=\"low_probability\"} 55",
             "# TYPE rf_inputs_received counter",
             "rf_inputs_received_total 7",
             "# TYPE rf_ws_clients gauge",

@@ -7,7 +7,7 @@
 use crate::clock::Clock;
 use crate::engine::EngineConfig;
 use crate::matchlog::read::LogMessage;
-use crate::matchlog::replay::{Seeker, is_input};
+use crate::matchlog::replay::{Seeker, is_input, is_view, views_before};
 use crate::shell::live::Live;
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
@@ -263,6 +263,11 @@ pub async fn play(
             settle(&live, received_before + delivered as u64).await;
             let (engine, index) = seeker.engine_at(messages, at);
             live.replace_engine(engine);
+            // The cameras show what they saw last before the new time.
+            live.views.clear();
+            for v in views_before(messages, index) {
+                deliver.deliver(v).await;
+            }
             next = index;
             control.set_ended(false);
             continue;
@@ -284,14 +289,16 @@ pub async fn play(
                 _ = &mut shutdown => return delivered,
             }
         };
-        if !is_input(m) {
+        if !is_input(m) && !is_view(m) {
             next += 1;
             continue;
         }
         match control.clock.wall_until(m.log_time) {
             Some(d) if d.is_zero() => {
                 deliver.deliver(m).await;
-                delivered += 1;
+                // Views are not fusion inputs: the settling after a seek does not wait
+                // for them.
+                delivered += usize::from(is_input(m));
                 next += 1;
                 if next % 1000 == 0 {
                     progress(next, messages.len());

@@ -47,6 +47,10 @@ pub struct ServeConfig {
     pub open: bool,
     /// Where the Foxglove WebSocket is served (`shell::foxglove`); None: it is not.
     pub foxglove: Option<std::net::SocketAddr>,
+    /// Bounds on the robots' camera views.
+    pub views: crate::camera_views::ViewLimits,
+    /// Whether the match log keeps the camera views (`[record] views`).
+    pub record_views: bool,
 }
 
 impl Default for ServeConfig {
@@ -66,6 +70,8 @@ impl Default for ServeConfig {
             routers: Vec::new(),
             open: false,
             foxglove: None,
+            views: crate::camera_views::ViewLimits::default(),
+            record_views: true,
         }
     }
 }
@@ -132,6 +138,8 @@ pub fn shared(
         cfg.publish_on_update,
         log,
     );
+    live.views
+        .configure(live.keys.clone(), cfg.views, cfg.record_views);
     live.set_control_access(match &cfg.control_token {
         Some(t) => ControlAccess::Token(t.clone()),
         None => ControlAccess::LoopbackOnly,
@@ -232,6 +240,15 @@ pub async fn serve_all(
         })
         .await
         .map_err(|e| anyhow::anyhow!("subscribing to statuses: {e}"))?;
+    let l = live.clone();
+    let _views = session
+        .declare_subscriber(keys.all_views())
+        .callback(move |s| {
+            let payload = s.payload().to_bytes();
+            l.on_view(s.key_expr().as_str(), &payload);
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("subscribing to camera views: {e}"))?;
     let (l, i) = (live.clone(), intake.clone());
     let _alive = session
         .liveliness()

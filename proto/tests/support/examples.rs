@@ -2,9 +2,10 @@
 //! accept it. The same values appear in `docs/protocol.md`.
 
 use proto::{
-    BallState, BallStatus, BounceEvent, Camera, CameraFootprint, HeadJoints, Intercept,
-    ModelParams, Observation, PathSample, Pitch, PixelBall, Pose2, Prediction, RobotStatus,
-    StageTiming, Stamp, StopPoint, VERSION, ValidationContext, ValidationError, WallSide,
+    BallState, BallStatus, BounceEvent, Camera, CameraFootprint, CameraPerception, CameraView,
+    CandidateOutcome, CandidateStage, HeadJoints, Intercept, ModelParams, Observation, PathSample,
+    Pitch, PixelBall, Pose2, Prediction, RobotStatus, StageTiming, Stamp, StopPoint, VERSION,
+    ValidationContext, ValidationError, ViewCandidate, WallSide,
 };
 
 /// The receiver's clock in the examples: 2023-11-14T22:13:20Z.
@@ -83,6 +84,61 @@ pub fn robot_status() -> RobotStatus {
                 polygon_m: vec![[-0.3, -0.35], [0.55, -0.6], [0.6, 0.0], [-0.25, -0.15]],
             },
         ],
+        cameras: vec![CameraPerception {
+            camera: Camera::Left,
+            frames: 5321,
+            candidates: 9870,
+            balls: 3012,
+            rejections: [
+                ("low_probability".to_string(), 6410),
+                ("off_pitch".to_string(), 448),
+            ]
+            .into_iter()
+            .collect(),
+            frames_per_s: 14.8,
+            candidates_per_frame: 1.9,
+            balls_per_s: 8.7,
+            detector_ms: 21.4,
+        }],
+    }
+}
+
+/// A 16×9 JPEG: green with a yellow square (`proto::test_support::TINY_JPEG_BASE64`).
+pub const TINY_JPEG_BASE64: &str = "/9j/4AAQSkZJRgABAQAAAQABAAD/2wBDABALDA4MChAODQ4SERATGCgaGBYWGDEjJR0oOjM9PDkzODdASFxOQERXRTc4UG1RV19iZ2hnPk1xeXBkeFxlZ2P/2wBDARESEhgVGC8aGi9jQjhCY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2NjY2P/wAARCAAJABADASIAAhEBAxEB/8QAFgABAQEAAAAAAAAAAAAAAAAAAAME/8QAHBAAAgICAwAAAAAAAAAAAAAAAgMBEQAEEiFh/8QAFAEBAAAAAAAAAAAAAAAAAAAABP/EABcRAQADAAAAAAAAAAAAAAAAABEAARL/2gAMAwEAAhEDEQA/AMOmtTdoAefBc3ZXEV17jcWpW0YIPmuKorib68yGMAXpYFrIT//Z";
+
+pub fn camera_view() -> CameraView {
+    CameraView {
+        version: VERSION,
+        robot_id: "miro1".to_string(),
+        seq: 57,
+        camera: Camera::Left,
+        stamp: NOW.offset_secs(-0.05),
+        width_px: 16,
+        height_px: 9,
+        source_width_px: 640,
+        source_height_px: 360,
+        detector_ms: 6.3,
+        candidates: vec![
+            ViewCandidate {
+                u_px: 8.0,
+                v_px: 5.0,
+                radius_px: 2.0,
+                score: 0.94,
+                stage: CandidateStage::Network,
+                outcome: CandidateOutcome::Ball,
+                reason: None,
+            },
+            ViewCandidate {
+                u_px: 2.5,
+                v_px: 1.0,
+                radius_px: 1.0,
+                score: 0.21,
+                stage: CandidateStage::Appearance,
+                outcome: CandidateOutcome::Rejected,
+                reason: Some("low_probability".to_string()),
+            },
+        ],
+        jpeg_base64: TINY_JPEG_BASE64.to_string(),
     }
 }
 
@@ -175,6 +231,7 @@ pub fn all_pretty() -> Vec<(&'static str, String)> {
         ("BallState", pretty(&ball_state())),
         ("Prediction", pretty(&prediction())),
         ("Intercept", pretty(&intercept())),
+        ("CameraView", pretty(&camera_view())),
         ("Pitch", pretty(&pitch())),
     ]
 }
@@ -223,6 +280,7 @@ pub fn one_error_of_each_kind() -> Vec<ValidationError> {
             bytes: 9,
             limit: 8,
         },
+        ValidationError::NotAnImage("jpeg_base64 is not a JPEG"),
     ];
     for e in &all {
         match e {
@@ -236,7 +294,8 @@ pub fn one_error_of_each_kind() -> Vec<ValidationError> {
             | ValidationError::StampOutOfRange { .. }
             | ValidationError::OutOfRange { .. }
             | ValidationError::TooMany { .. }
-            | ValidationError::TooLong { .. } => {}
+            | ValidationError::TooLong { .. }
+            | ValidationError::NotAnImage(_) => {}
         }
     }
     all

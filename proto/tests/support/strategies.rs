@@ -121,6 +121,7 @@ prop_compose! {
             fps,
             timings,
             footprints,
+            cameras: Vec::new(),
         }
     }
 }

@@ -40,6 +40,7 @@ use crate::detection::rectify::{LocalView, MAX_HALF_SIDE_PX};
 use crate::detection::seeded_mask::SeededLut;
 use crate::detection::two_colour::{Hull, PatternError, region_mask};
 use crate::image::{ImageError, Mask, RgbImage};
+use proto::CandidateStage;
 use thiserror::Error;
 
 /// Why the detector could not be built or run.
@@ -160,6 +161,7 @@ pub fn judge(
                 probability,
                 angular_radius_rad: p.angular_radius_rad,
                 sparse_blob: p.sparse_blob,
+                stage: p.stage,
             }),
             repeat: false,
         })
@@ -194,6 +196,8 @@ pub struct Candidate {
     pub angular_radius_rad: Option<f64>,
     /// See [`Proposal::sparse_blob`].
     pub sparse_blob: bool,
+    /// The stage that proposed it.
+    pub stage: CandidateStage,
 }
 
 /// A circle the colour and shape stages propose.
@@ -210,6 +214,9 @@ pub struct Proposal {
     /// The circle came from a sparse blob (a patterned ball's fragments, or a ball partly
     /// hidden): its outline, and so its radius, is less certain than a solid disc's.
     pub sparse_blob: bool,
+    /// The stage that proposed it (the colour path, the candidate network, the appearance
+    /// proposer or the tracked ball's predicted place).
+    pub stage: CandidateStage,
 }
 
 /// A frame's proposals and the local views they were found in.
@@ -359,16 +366,19 @@ impl Detector {
         } else {
             Proposals::default()
         };
-        let frame_proposal = |circle: Circle| Proposal {
+        let frame_proposal = |circle: Circle, stage: CandidateStage| Proposal {
             frame: circle,
             local: circle,
             view: None,
             angular_radius_rad: None,
             sparse_blob: false,
+            stage,
         };
         if let Some(net) = self.candidate_net() {
             for circle in net.candidates(image, &self.config.candidates) {
-                proposals.items.push(frame_proposal(circle));
+                proposals
+                    .items
+                    .push(frame_proposal(circle, CandidateStage::Network));
             }
             clock.mark("candidates");
         }
@@ -385,7 +395,9 @@ impl Detector {
                     .iter()
                     .any(|p| same_place(&p.frame, &circle));
                 if !repeats {
-                    proposals.items.push(frame_proposal(circle));
+                    proposals
+                        .items
+                        .push(frame_proposal(circle, CandidateStage::Appearance));
                 }
             }
             clock.mark("appearance");
@@ -663,6 +675,7 @@ impl Detector {
                 view: None,
                 angular_radius_rad: None,
                 sparse_blob: false,
+                stage: CandidateStage::Predicted,
             });
         }
         let candidates = judge(&proposals, image, classifier)
@@ -772,7 +785,7 @@ struct BlobView<'a> {
     own: Option<Circle>,
 }
 
-/// The proposals from every blob's circles: in frame pixels, with the local view (kept
+/// The colour stage's proposals from every blob's circles: in frame pixels, with the local view (kept
 /// once per blob) and the angular radius when a camera model placed them.
 fn assemble(
     found: Vec<BlobCircles>,
@@ -802,6 +815,7 @@ fn assemble(
                         view: Some(index),
                         angular_radius_rad: Some(view.angular_radius_rad(c.center_px, c.radius_px)),
                         sparse_blob,
+                        stage: CandidateStage::Colour,
                     });
                 }
             }
@@ -813,6 +827,7 @@ fn assemble(
                     view: None,
                     angular_radius_rad: None,
                     sparse_blob,
+                    stage: CandidateStage::Colour,
                 })),
         }
     }

@@ -130,6 +130,7 @@ fn the_appearance_proposer_finds_a_ball_of_another_colour_and_both_add_up() {
     };
     let (colour, _) = run(Proposer::Colour);
     assert!(!colour.iter().any(|c| near(&c.circle, 80.0, 60.0, 9.0)));
+    assert!(colour.iter().all(|c| c.stage == CandidateStage::Colour));
     let (appearance, marks) = run(Proposer::Appearance);
     assert_eq!(marks, ["appearance", "classify"]);
     assert!(appearance.iter().any(|c| near(&c.circle, 80.0, 60.0, 9.0)));
@@ -142,12 +143,15 @@ fn the_appearance_proposer_finds_a_ball_of_another_colour_and_both_add_up() {
     assert_eq!(marks.first(), Some(&"mask"));
     assert!(marks.contains(&"appearance"));
     assert!(both.iter().any(|c| near(&c.circle, 80.0, 60.0, 9.0)));
-    // The orange ball is proposed by both paths but kept once.
-    let orange = both
+    // The orange ball is proposed by both paths but kept once, as the colour path's.
+    let orange: Vec<_> = both
         .iter()
         .filter(|c| near(&c.circle, 200.4, 90.7, 14.0))
-        .count();
-    assert_eq!(orange, 1, "{both:?}");
+        .collect();
+    assert_eq!(orange.len(), 1, "{both:?}");
+    assert_eq!(orange[0].stage, CandidateStage::Colour);
+    let blue = both.iter().find(|c| near(&c.circle, 80.0, 60.0, 9.0));
+    assert_eq!(blue.map(|c| c.stage), Some(CandidateStage::Appearance));
 }
 
 #[test]
@@ -390,4 +394,27 @@ fn a_hint_is_judged_as_a_candidate_where_nothing_else_is() {
     assert_eq!(found.len(), 1);
     assert_eq!(found[0].circle.center_px, hint.center_px);
     assert!((found[0].probability - 0.25).abs() < 1e-9);
+    assert_eq!(found[0].stage, CandidateStage::Predicted);
+}
+
+#[test]
+fn the_network_proposer_marks_its_candidates() {
+    let mut image = background();
+    draw_ball(&mut image, [200.4, 90.7], 14.0, false);
+    let detector = Detector::new(DetectorConfig {
+        proposer: Proposer::Net,
+        ..DetectorConfig::default()
+    })
+    .unwrap();
+    let found = detector
+        .detect(&image, None, &HoughOnly, &mut NoClock)
+        .unwrap();
+    let stages: Vec<CandidateStage> = found.iter().map(|c| c.stage).collect();
+    assert!(stages.contains(&CandidateStage::Network), "{found:?}");
+    assert!(
+        stages
+            .iter()
+            .all(|s| matches!(s, CandidateStage::Network | CandidateStage::Appearance)),
+        "{stages:?}"
+    );
 }

@@ -1,17 +1,20 @@
 //! The perceive loop: frames from a source through the perception pipeline, observations
-//! and status handed to the network side, with pacing, restamping, frame recording and a
-//! summary. It runs on its own thread (it is CPU-bound and must not stall the network).
+//! and status handed to the network side, camera views handed to their encoder thread
+//! ([`crate::runtime::views`]), with pacing, restamping, frame recording and a summary. It
+//! runs on its own thread (it is CPU-bound and must not stall the network).
 
 use crate::agent::{Agent, FrameInput, FrameOutcome};
 use crate::image::RgbImage;
+use crate::pipeline::FrameResult;
 use crate::runtime::RunArgs;
 use crate::runtime::frame::StoredFrame;
 use crate::runtime::frames_io::{FolderWriter, McapFrameWriter};
 use crate::runtime::source::FrameSource;
 use crate::runtime::timer::StageTimer;
+use crate::runtime::views::{ViewClock, ViewEncoder, ViewJob};
 use crate::runtime::wall_now;
 use anyhow::{Context, Result};
-use proto::{BallState, Observation, RobotStatus, StageTiming, Stamp};
+use proto::{BallState, CameraView, Observation, RobotStatus, StageTiming, Stamp};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -23,6 +26,7 @@ use tokio::sync::mpsc;
 pub(crate) enum Outbound {
     Observation(Observation),
     Status(RobotStatus),
+    View(CameraView),
 }
 
 /// Frames whose pipeline time the summary keeps (about nine hours of both cameras at
@@ -58,6 +62,12 @@ pub struct Summary {
     /// The pipeline's time per processed frame, milliseconds (at most
     /// `MAX_TIMED_FRAMES` of them).
     pub total_ms: Vec<f64>,
+    /// Camera views built and handed to the network side.
+    pub views_sent: u64,
+    /// Camera views dropped because the encoder was still busy with the last.
+    pub views_dropped: u64,
+    /// Camera views that could not be built.
+    pub views_failed: u64,
 }
 
 enum FrameSink {
@@ -106,6 +116,7 @@ pub(crate) fn perceive(
         .transpose()?;
     let mut pacer = Pacer::new(args, source.live());
     let mut status = StatusClock::new(args.status_hz);
+    let mut views = Views::start(args, &agent, out.as_ref())?;
     let mut timer = StageTimer::new();
     let mut summary = Summary::default();
     let mut last_progress = Instant::now();
@@ -123,6 +134,7 @@ pub(crate) fn perceive(
             Admission::Now => {}
         }
         let outcome = perceive_frame(&mut agent, &frame, &shared, args, &mut timer)?;
+        agent.record_pipeline_ms(frame.camera, timer.frame_ms());
         summary.frames += 1;
         if summary.total_ms.len() < MAX_TIMED_FRAMES {
             summary.total_ms.push(timer.frame_ms());
@@ -140,7 +152,10 @@ pub(crate) fn perceive(
                 let _ = tx.blocking_send(Outbound::Observation(o));
             }
         }
-        if let Some(st) = status.due(&agent, &frame, &timer, summary.frames)
+        if let Some(views) = &mut views {
+            views.offer(&frame, outcome.result, timer.frame_ms());
+        }
+        if let Some(st) = status.due(&mut agent, &frame, &timer, summary.frames)
             && let Some(tx) = &out
         {
             let _ = tx.blocking_send(Outbound::Status(st));
@@ -153,10 +168,58 @@ pub(crate) fn perceive(
             log_progress(&agent, &summary, &timer);
         }
     }
+    if let Some(views) = views {
+        let counts = views.encoder.finish();
+        summary.views_sent = counts.sent;
+        summary.views_dropped = counts.dropped;
+        summary.views_failed = counts.failed;
+    }
     if let Some(sink) = sink {
         sink.finish()?;
     }
     Ok(summary)
+}
+
+/// The camera views of a run that publishes: when each is due, and their encoder.
+struct Views {
+    clock: ViewClock,
+    encoder: ViewEncoder,
+}
+
+impl Views {
+    /// The views of a publishing run (`out`) at `--view-hz`; none offline or at 0.
+    fn start(
+        args: &RunArgs,
+        agent: &Agent,
+        out: Option<&mpsc::Sender<Outbound>>,
+    ) -> Result<Option<Views>> {
+        let Some(out) = out.filter(|_| args.view_hz > 0.0) else {
+            return Ok(None);
+        };
+        let out = out.clone();
+        let encoder = ViewEncoder::spawn(agent.robot_id().to_string(), move |view| {
+            out.blocking_send(Outbound::View(view)).is_ok()
+        })
+        .context("starting the view encoder")?;
+        Ok(Some(Views {
+            clock: ViewClock::new(args.view_hz),
+            encoder,
+        }))
+    }
+
+    /// Hands the frame to the encoder when its camera's view is due (the image is copied
+    /// only then); a busy encoder drops it.
+    fn offer(&mut self, frame: &StoredFrame, result: FrameResult, detector_ms: f64) {
+        if self.clock.due(frame.camera, frame.stamp) {
+            self.encoder.offer(ViewJob {
+                camera: frame.camera,
+                stamp: frame.stamp,
+                image: frame.image.clone(),
+                result,
+                detector_ms,
+            });
+        }
+    }
 }
 
 /// How often the loop logs its progress.
@@ -284,7 +347,7 @@ impl StatusClock {
     /// The robot's status at `frame`, if one is due.
     fn due(
         &mut self,
-        agent: &Agent,
+        agent: &mut Agent,
         frame: &StoredFrame,
         timer: &StageTimer,
         frames: u64,
@@ -368,4 +431,14 @@ pub fn print_summary(agent_id: &str, s: &Summary) {
             s.skipped
         );
     }
+    if s.views_sent + s.views_dropped + s.views_failed > 0 {
+        println!(
+            "{agent_id}: {} camera views sent, {} dropped (encoder busy), {} failed",
+            s.views_sent, s.views_dropped, s.views_failed
+        );
+    }
 }
+
+#[cfg(test)]
+#[path = "perceive_tests.rs"]
+mod tests;

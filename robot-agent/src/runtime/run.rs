@@ -1,6 +1,7 @@
 //! The agent's run: the models and the pipeline set up from the flags, a frame source
 //! opened, the perceive loop on its own thread and the Zenoh side on the async runtime
-//! (observations and status out, the team's ball state in for validation, liveliness).
+//! (observations, status and camera views out, the team's ball state in for validation,
+//! liveliness).
 
 use crate::agent::Agent;
 use crate::runtime::models::{
@@ -9,9 +10,10 @@ use crate::runtime::models::{
 use crate::runtime::perceive::{FrameHook, Outbound, Summary, perceive, print_summary};
 use crate::runtime::ros_frames::RosTopics;
 use crate::runtime::source::{FrameSource, ImagesSource, McapSource, SourceSpec};
+use crate::runtime::views::check_view_hz;
 use anyhow::{Context, Result};
 use proto::net::NetConfig;
-use proto::{BallState, KeySpace, Pitch};
+use proto::{BallState, Camera, KeySpace, Pitch};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -84,11 +86,22 @@ pub struct RunArgs {
     /// Status messages per second.
     #[arg(long, default_value_t = 2.0)]
     pub status_hz: f64,
+    /// Camera views per second per camera (a small JPEG of a frame with the detector's
+    /// candidates, built on a thread of its own; dropped while it is busy); 0 turns them
+    /// off, at most 30. Offline runs build none.
+    #[arg(long, default_value_t = 2.0, value_parser = parse_view_hz)]
+    pub view_hz: f64,
     /// Stop when this process is no longer the parent (a launcher that died).
     #[arg(long, hide = true)]
     pub parent_pid: Option<u32>,
     #[command(flatten)]
     pub ros: RosTopics,
+}
+
+/// `--view-hz`: a number [`check_view_hz`] accepts.
+fn parse_view_hz(text: &str) -> Result<f64, String> {
+    let hz: f64 = text.parse().map_err(|e| format!("{text:?}: {e}"))?;
+    check_view_hz(hz)
 }
 
 /// Where a run's frames come from.
@@ -146,6 +159,7 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
         "robot id {:?} is not valid",
         args.robot_id
     );
+    check_view_hz(args.view_hz).map_err(|e| anyhow::anyhow!("--view-hz: {e}"))?;
     let models = load_models(
         args.calibration.as_deref(),
         args.calibration_right.as_deref(),
@@ -209,6 +223,18 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
         .declare_publisher(keys.robot_status(&id)?)
         .await
         .map_err(|e| anyhow::anyhow!("status publisher: {e}"))?;
+    // Views yield to observations and status, and are dropped rather than queued when the
+    // network is congested.
+    let mut view_pubs = Vec::with_capacity(2);
+    for camera in [Camera::Left, Camera::Right] {
+        let publisher = session
+            .declare_publisher(keys.robot_view(&id, camera)?)
+            .priority(zenoh::qos::Priority::DataLow)
+            .congestion_control(zenoh::qos::CongestionControl::Drop)
+            .await
+            .map_err(|e| anyhow::anyhow!("view publisher: {e}"))?;
+        view_pubs.push((camera, publisher));
+    }
     let bad_states = Arc::new(std::sync::atomic::AtomicU64::new(0));
     let subscriber = {
         let (shared, bad) = (shared.clone(), bad_states.clone());
@@ -234,6 +260,14 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
         keys.robot_obs(&id)?,
         keys.robot_status(&id)?
     );
+    if args.view_hz > 0.0 {
+        tracing::info!(
+            "{id}: camera views at {} Hz per camera on {}",
+            args.view_hz,
+            keys.robot_view(&id, Camera::Left)?
+                .replace("/left", "/{left|right}")
+        );
+    }
     let (tx, mut rx) = mpsc::channel::<Outbound>(256);
     let args = Arc::new(args);
     let a = args.clone();
@@ -244,6 +278,10 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
         let result = match msg {
             Outbound::Observation(o) => obs_pub.put(proto::encode(&o)).await,
             Outbound::Status(s) => status_pub.put(proto::encode(&s)).await,
+            Outbound::View(v) => match view_pubs.iter().find(|(c, _)| *c == v.camera) {
+                Some((_, publisher)) => publisher.put(proto::encode(&v)).await,
+                None => Ok(()),
+            },
         };
         if let Err(e) = result {
             tracing::warn!("publishing: {e}");

@@ -46,6 +46,9 @@ struct DemoArgs {
     /// Camera frames per second of each agent (both cameras).
     #[arg(long, default_value_t = 10.0)]
     camera_hz: f64,
+    /// Camera views each agent publishes per second and camera (0: none).
+    #[arg(long, default_value_t = 2.0)]
+    view_hz: f64,
 }
 
 /// Prints a one-line summary every few seconds until `stop`.
@@ -159,6 +162,7 @@ async fn run(a: DemoArgs) -> Result<()> {
                 match_s,
                 start,
                 camera_hz: a.camera_hz,
+                view_hz: a.view_hz,
                 endpoint: endpoint.clone(),
                 prefix: cfg.prefix.clone(),
             };

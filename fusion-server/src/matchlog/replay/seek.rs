@@ -14,10 +14,39 @@ pub fn is_input(m: &LogMessage) -> bool {
     matches!(m.schema_name.as_str(), "Observation" | "RobotStatus")
 }
 
+/// Whether a live server is shown this message as it replays: a camera view (the page
+/// shows it; the fusion does not use it).
+pub fn is_view(m: &LogMessage) -> bool {
+    m.schema_name == crate::camera_views::images::VIEW_SCHEMA
+}
+
+/// The newest view of each camera logged before message `end`, in log order.
+pub fn views_before(messages: &[LogMessage], end: usize) -> Vec<&LogMessage> {
+    let mut newest: std::collections::BTreeMap<&str, usize> = Default::default();
+    for (i, m) in messages[..end.min(messages.len())].iter().enumerate() {
+        if is_view(m) {
+            newest.insert(m.topic.as_str(), i);
+        }
+    }
+    let mut idx: Vec<usize> = newest.into_values().collect();
+    idx.sort_unstable();
+    idx.into_iter().map(|i| &messages[i]).collect()
+}
+
 /// Feeds one input message to the engine, received at its log time (rejections are counted
-/// by the engine, as live).
+/// by the engine, as live). A log holds no liveliness tokens: a robot comes online with its
+/// first message and stays so, as when the log is played back as if live (whose player
+/// declares each robot's token when it first appears).
 pub fn feed(engine: &mut Engine, keys: &KeySpace, m: &LogMessage) {
     let robot = keys.robot_id_of(&m.topic);
+    if !is_input(m) {
+        return;
+    }
+    if let Some(id) = robot
+        && !engine.is_online(id)
+    {
+        engine.liveliness(id, true, m.log_time).ok();
+    }
     match m.schema_name.as_str() {
         "Observation" => {
             engine.observation(robot, &m.data, m.log_time).ok();

@@ -221,3 +221,43 @@ fn a_replay_nobody_reads_reports_the_same() {
     assert_eq!(kept.states_written, sink.written.len() as u64);
     assert_eq!(unread, kept);
 }
+
+/// Every scene update written.
+#[derive(Debug, Default)]
+struct Scenes(Vec<Vec<u8>>);
+
+impl ReplaySink for Scenes {
+    fn write(&mut self, topic: &str, _: &str, _: Stamp, payload: &[u8]) {
+        if topic == crate::scene::SCENE_TOPIC {
+            self.0.push(payload.to_vec());
+        }
+    }
+}
+
+#[test]
+fn a_replayed_log_draws_its_robots_online_and_its_scene_ten_times_a_second() {
+    use foxglove::Decode;
+    let opts = ReplayOptions {
+        scene: true,
+        ..ReplayOptions::default()
+    };
+    let mut scenes = Scenes::default();
+    let report = replay(&rolling_ball(), &opts, &mut scenes, &mut |_, _| {}).expect("replay");
+    // Half a second of states at 30 Hz: an update every 0.1 s, not every fourth state.
+    assert!(scenes.0.len() >= 5, "{} updates", scenes.0.len());
+    assert_eq!(report.scene_written as usize, scenes.0.len() * 2 + 1);
+    let last = foxglove::messages::SceneUpdate::decode(scenes.0[scenes.0.len() - 1].as_slice())
+        .expect("a scene update");
+    let labels: Vec<String> = last
+        .entities
+        .iter()
+        .flat_map(|e| e.texts.iter().map(|t| t.text.clone()))
+        .collect();
+    for robot in ["r1", "r2"] {
+        assert!(labels.iter().any(|l| l.starts_with(robot)), "{labels:?}");
+    }
+    assert!(
+        labels.iter().all(|l| !l.contains("(offline)")),
+        "robots that send are online: {labels:?}"
+    );
+}

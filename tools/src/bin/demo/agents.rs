@@ -25,6 +25,8 @@ pub struct AgentsConfig {
     pub match_s: f64,
     pub start: Stamp,
     pub camera_hz: f64,
+    /// Camera views per second per camera (`--view-hz`; 0: none).
+    pub view_hz: f64,
     pub endpoint: String,
     pub prefix: String,
 }
@@ -48,6 +50,7 @@ impl Agents {
                 .args(["--duration-s", &cfg.match_s.to_string()])
                 .args(["--start-ns", &cfg.start.0.to_string()])
                 .args(["--camera-hz", &cfg.camera_hz.to_string()])
+                .args(["--view-hz", &cfg.view_hz.to_string()])
                 .args(["--connect", &cfg.endpoint, "--prefix", &cfg.prefix])
                 // Agents stop by themselves should the demo die without stopping them.
                 .args(["--parent-pid", &std::process::id().to_string()])

@@ -36,7 +36,13 @@ struct Direct(Arc<Live>);
 
 impl Deliver for Direct {
     fn deliver<'a>(&'a mut self, m: &'a LogMessage) -> BoxFuture<'a, ()> {
-        Box::pin(async move { self.0.on_observation(&m.topic, &m.data) })
+        Box::pin(async move {
+            if crate::matchlog::replay::is_view(m) {
+                self.0.on_view(&m.topic, &m.data);
+            } else {
+                self.0.on_observation(&m.topic, &m.data)
+            }
+        })
     }
 }
 
