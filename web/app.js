@@ -115,9 +115,37 @@ function onFrame(view) {
   replayBar.show(view.replay || null);
 }
 
+/// The ball's last half minute from the server, so that a page that has just opened (or
+/// reconnected) shows the charts and the trail at once; the stream carries on from there.
+async function loadHistory() {
+  try {
+    const r = await fetch("/api/history");
+    if (!r.ok) return;
+    const h = await r.json();
+    const past = h.samples.map((s) => ({
+      t_s: s.stamp / NS,
+      x: s.position_m[0],
+      y: s.position_m[1],
+      speed: Math.hypot(s.velocity_mps[0], s.velocity_mps[1]),
+      ellipse_cm: 100 * s.ellipse_2sigma_m,
+    }));
+    const firstH = model.history.length ? model.history[0].t_s : Infinity;
+    const older = past.filter((s) => s.t_s < firstH - 1e-6);
+    model.history = [...older.map(({ t_s, speed, ellipse_cm }) => ({ t_s, speed, ellipse_cm })), ...model.history];
+    const firstT = model.trail.length ? model.trail[0].t_s : Infinity;
+    const now_s = h.stamp / NS;
+    const trail = past.filter((s) => s.t_s < firstT - 1e-6 && now_s - s.t_s <= TRAIL_S);
+    model.trail = [...trail.map(({ t_s, x, y }) => ({ t_s, x, y })), ...model.trail];
+    model.historyLoaded = past.length;
+  } catch {
+    // The stream fills the charts by itself.
+  }
+}
+
 function connect() {
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/api/stream`);
   ws.onopen = () => {
+    loadHistory();
     model.retries = 0;
     model.receivedAt = performance.now();
     setConnection("live", "live");
@@ -294,6 +322,7 @@ Object.defineProperty(window, "__teamBall", {
       replayClock: el("replay-clock").textContent,
       trail: model.trail.length,
       history: model.history.length,
+      historyLoaded: model.historyLoaded || 0,
       drawFps: rate(drawTimes),
       framesPerS: rate(model.arrivals),
       canvas: { width_px: pitch.cssW, height_px: pitch.cssH },

@@ -9,7 +9,6 @@ use crate::load::ServerProcess;
 use crate::load_report::proc_cpu_s;
 use anyhow::{Context, Result};
 use futures_util::StreamExt;
-use proto::Stamp;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -114,7 +113,14 @@ pub async fn run(
     let (mut ws, _) = tokio_tungstenite::connect_async(url)
         .await
         .context("the view stream")?;
-    tokio::time::sleep(Duration::from_secs_f64(warmup_s)).await;
+    // The stream is read (and what comes dropped) while the agents warm up: views left
+    // unread in the socket would arrive late at once when the measuring starts.
+    let warm = Instant::now() + Duration::from_secs_f64(warmup_s);
+    while let Ok(next) =
+        tokio::time::timeout(warm.saturating_duration_since(Instant::now()), ws.next()).await
+    {
+        anyhow::ensure!(matches!(next, Some(Ok(_))), "the view stream closed");
+    }
     let pid = server.pid();
     let cpu0 = proc_cpu_s(pid).unwrap_or(0.0);
     let t0 = Instant::now();
@@ -129,11 +135,7 @@ pub async fn run(
             Ok(Some(Ok(Message::Text(t)))) => {
                 let now = fusion_server::Clock::now(&fusion_server::SystemClock);
                 if let Ok(v) = serde_json::from_str::<proto::CameraView>(&t) {
-                    // Views kept from before the measured time come first: skip them.
-                    let delay_s = now.secs_since(v.stamp);
-                    if v.stamp >= Stamp(now.0.saturating_sub((cfg.seconds * 1e9) as u64)) {
-                        delays.push(delay_s);
-                    }
+                    delays.push(now.secs_since(v.stamp));
                 }
             }
             Ok(Some(Ok(_))) => {}

@@ -8,6 +8,7 @@
 pub mod args;
 pub mod config;
 pub mod foxglove;
+pub mod history;
 pub mod http;
 pub mod intake;
 pub mod live;

@@ -100,6 +100,23 @@ async function liveChecks(browser, recordDir) {
   }, 30_000, 100).catch((e) => fail(e.message));
   if (moved) check(true, `ball marker moved ${moved.toFixed(2)} m`);
 
+  // A page opened now shows the ball's past at once: its charts and trail come from
+  // /api/history, not only from the states that arrive after it opened.
+  {
+    const fresh = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+    watchErrors(fresh, errors, phase);
+    const opened = Date.now();
+    await fresh.goto(url);
+    const filled = await until("a fresh page's history", async () => {
+      const s = await tb(fresh);
+      return s && s.historyLoaded >= 10 && s;
+    }, 5000).catch(() => null);
+    const after_s = (Date.now() - opened) / 1000;
+    check(filled && filled.history >= 10,
+      `a page opened mid-match has ${filled ? filled.historyLoaded : 0} past samples of the ball in its charts ${after_s.toFixed(1)} s after opening`);
+    await fresh.close();
+  }
+
   // One ellipse (at least) per robot reporting sightings.
   const api = await getJson(url, "/api/state");
   const counts = {};

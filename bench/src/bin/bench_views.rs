@@ -6,7 +6,8 @@
 //!
 //! Flags: `--robots N` (default 5), `--view-hz HZ` (default 2), `--camera-hz HZ` (default
 //! 10, both cameras), `--seconds S` (default 30), `--warmup-s S` (default 8), `--seed N`,
-//! `--server FILE`, `--agent FILE` (default: beside this program), `--doc FILE`.
+//! `--server FILE`, `--agent FILE` (default: beside this program), `--doc FILE` and
+//! `--section NAME` (default `bench-views`).
 //!
 //! `cargo build --release -p fusion-server -p tools --bins && cargo run --release -p bench --bin bench_views -- --doc docs/benchmarks.md`
 
@@ -36,9 +37,12 @@ struct Args {
     /// The agent binary [default: `sim_agent` beside this one].
     #[arg(long)]
     agent: Option<PathBuf>,
-    /// Rewrite the `bench-views` section of this file with the table.
+    /// Rewrite a section of this file with the table.
     #[arg(long)]
     doc: Option<PathBuf>,
+    /// The section `--doc` rewrites (between `<!-- NAME:begin -->` and `<!-- NAME:end -->`).
+    #[arg(long, default_value = "bench-views")]
+    section: String,
 }
 
 fn beside(name: &str, given: Option<PathBuf>, build: &str) -> Result<PathBuf> {
@@ -95,11 +99,12 @@ fn main() -> Result<()> {
     print!("{t}");
     if let Some(doc) = &a.doc {
         let command = format!(
-            "cargo run --release -p bench --bin bench_views -- --robots {} --view-hz {} --camera-hz {} --seconds {} --doc {}",
+            "cargo run --release -p bench --bin bench_views -- --robots {} --view-hz {} --camera-hz {} --seconds {} --section {} --doc {}",
             a.robots,
             a.view_hz,
             a.camera_hz,
             a.seconds,
+            a.section,
             doc.display()
         );
         let body = format!(
@@ -108,8 +113,8 @@ fn main() -> Result<()> {
         );
         eval::report::rewrite_section_between(
             doc,
-            "<!-- bench-views:begin -->",
-            "<!-- bench-views:end -->",
+            &format!("<!-- {}:begin -->", a.section),
+            &format!("<!-- {}:end -->", a.section),
             &body,
         )?;
     }

@@ -56,6 +56,7 @@ pub fn app(live: Arc<Live>) -> Router {
     Router::new()
         .route("/api/state", get(state))
         .route("/api/robots", get(robots))
+        .route("/api/history", get(history))
         .route("/api/predict", get(predict))
         .route("/api/intercept", get(intercept))
         .route("/api/stream", get(stream))
@@ -89,6 +90,10 @@ async fn state(State(live): State<Arc<Live>>) -> Response {
         live.current_view().to_string(),
     )
         .into_response()
+}
+
+async fn history(State(live): State<Arc<Live>>) -> Response {
+    json_text(live.history_json())
 }
 
 async fn robots(State(live): State<Arc<Live>>) -> Response {

@@ -11,6 +11,7 @@ use crate::matchlog::{LogKind, MatchLog};
 use crate::query::{BallQuery, QueryError, QueryReply};
 use crate::scene::{Scene, SceneRecord};
 use crate::shell::foxglove::FoxgloveHub;
+use crate::shell::history::BallHistory;
 use crate::shell::metrics::ShellStats;
 use crate::shell::replay_live::{ReplayControl, ReplayStatus};
 use crate::shell::views::ViewHub;
@@ -118,6 +119,8 @@ pub struct Live {
     foxglove: OnceLock<Arc<FoxgloveHub>>,
     /// The robots' camera views.
     pub views: ViewHub,
+    /// The ball over the last half minute, for a page that opens.
+    history: Mutex<BallHistory>,
 }
 
 impl Live {
@@ -155,6 +158,7 @@ impl Live {
             ws_send_timeout: OnceLock::new(),
             foxglove: OnceLock::new(),
             views: ViewHub::new(keys_for_views),
+            history: Mutex::new(BallHistory::default()),
         }
     }
 
@@ -444,6 +448,9 @@ impl Live {
                 log.log(scene_kind(r), r.topic, r.log_time, &r.payload);
             }
         }
+        if let Ok(mut h) = self.history.lock() {
+            h.push(now, state.as_ref());
+        }
         // The view only for watchers: nobody else needs it made at every tick.
         let view = (with_view && self.stream.receiver_count() > 0).then(|| {
             let view = self.view(&inner, now, state);
@@ -505,6 +512,12 @@ impl Live {
         let now = self.clock.now();
         let view = self.view(&inner, now, inner.engine.ball_state(now));
         serde_json::to_string(&view).unwrap_or_default()
+    }
+
+    /// The ball over the last half minute of match time (`GET /api/history`).
+    pub fn history_json(&self) -> String {
+        let samples = self.history.lock().map(|h| h.samples()).unwrap_or_default();
+        serde_json::json!({ "stamp": self.clock.now(), "samples": samples }).to_string()
     }
 
     pub fn robots_json(&self) -> String {

@@ -88,6 +88,30 @@ async fn state_robots_and_health() {
 }
 
 #[tokio::test]
+async fn the_history_holds_the_published_states() {
+    let (live, clock) = live_with_ball();
+    let (_, body) = get(app(live.clone()), "/api/history").await;
+    assert_eq!(json(&body)["samples"].as_array().map(Vec::len), Some(0));
+    // Two seconds of publications at 30 Hz, the ball coasting on.
+    let start = clock.now();
+    for k in 1..=60 {
+        clock
+            .0
+            .store(start.offset_secs(f64::from(k) / 30.0).0, Ordering::SeqCst);
+        live.publication(false);
+    }
+    let (s, body) = get(app(live), "/api/history").await;
+    assert_eq!(s, StatusCode::OK);
+    let v = json(&body);
+    let samples = v["samples"].as_array().expect("samples");
+    assert!((18..=21).contains(&samples.len()), "{}", samples.len());
+    let first = &samples[0];
+    assert!(first["position_m"][0].as_f64().is_some_and(|x| x > 0.5));
+    assert!(first["ellipse_2sigma_m"].as_f64().is_some_and(|e| e > 0.0));
+    assert!(v["stamp"].as_u64().is_some());
+}
+
+#[tokio::test]
 async fn predict_and_intercept_answer_or_explain() {
     let (live, _) = live_with_ball();
     let (s, body) = get(app(live.clone()), "/api/predict?t=1.5").await;
