@@ -266,3 +266,103 @@ fn futures_executor_put(session: &zenoh::Session, key: &str, payload: Vec<u8>) {
     use zenoh::Wait;
     session.put(key, payload).wait().expect("put");
 }
+
+/// A Foxglove client of `serve --foxglove` is told of each camera's image and annotation
+/// channels as the views come, subscribes, and gets the JPEG and its circles, decoded with
+/// the schemas the server advertised.
+#[tokio::test(flavor = "multi_thread")]
+async fn views_stream_live_to_foxglove() {
+    use base64::Engine as _;
+    use futures_util::SinkExt;
+    use tokio_tungstenite::tungstenite::{client::IntoClientRequest, protocol::Message};
+
+    let (mut server, endpoint, _addr) = start_server(&["--foxglove", "127.0.0.1:0"]);
+    let line = server.line_starting("foxglove ws://", Duration::from_secs(30));
+    let url = line.trim_start_matches("foxglove ").to_string();
+    let mut request = url.into_client_request().expect("request");
+    request.headers_mut().insert(
+        "Sec-WebSocket-Protocol",
+        "foxglove.websocket.v1".parse().expect("header"),
+    );
+    let (mut ws, _) = tokio_tungstenite::connect_async(request)
+        .await
+        .expect("connects");
+    let session = NetConfig::connecting(&endpoint)
+        .open()
+        .await
+        .expect("session");
+    let key = KeySpace::default()
+        .robot_view("miro1", Camera::Left)
+        .expect("key");
+    let mut wanted: std::collections::BTreeMap<u64, (String, prost_reflect::MessageDescriptor)> =
+        Default::default();
+    let mut got = std::collections::BTreeSet::new();
+    let mut seq = 0;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+    while got.len() < 2 {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "got {got:?} of the two channels"
+        );
+        // A view every 300 ms until both channels have delivered one.
+        put(
+            &session,
+            &key,
+            proto::encode(&camera_view("miro1", Camera::Left, seq, now())),
+        )
+        .await;
+        seq += 1;
+        let Ok(Some(Ok(msg))) = tokio::time::timeout(Duration::from_millis(300), ws.next()).await
+        else {
+            continue;
+        };
+        match msg {
+            Message::Text(t) => {
+                let v: serde_json::Value = serde_json::from_str(t.as_str()).expect("JSON");
+                if v["op"] != "advertise" {
+                    continue;
+                }
+                for c in v["channels"].as_array().expect("channels") {
+                    let topic = c["topic"].as_str().unwrap_or_default().to_string();
+                    let schema = c["schemaName"].as_str().unwrap_or_default().to_string();
+                    if !topic.starts_with("/robots/miro1/left/") {
+                        continue;
+                    }
+                    let set = base64::engine::general_purpose::STANDARD
+                        .decode(c["schema"].as_str().expect("schema"))
+                        .expect("base64");
+                    let pool = DescriptorPool::decode(set.as_slice()).expect("descriptors");
+                    let desc = pool.get_message_by_name(&schema).expect("the type");
+                    let id = c["id"].as_u64().expect("id");
+                    wanted.insert(id, (topic, desc));
+                    let sub = serde_json::json!({"op": "subscribe",
+                        "subscriptions": [{"id": id, "channelId": id}]});
+                    ws.send(Message::Text(sub.to_string().into()))
+                        .await
+                        .expect("subscribe");
+                }
+            }
+            Message::Binary(b) => {
+                let sub = u64::from(u32::from_le_bytes([b[1], b[2], b[3], b[4]]));
+                let Some((topic, desc)) = wanted.get(&sub) else {
+                    continue;
+                };
+                let m = DynamicMessage::decode(desc.clone(), &b[13..]).expect("decodes");
+                if topic.ends_with("/image") {
+                    let data = m.get_field_by_name("data").expect("data");
+                    assert_eq!(
+                        proto::jpeg_size_px(data.as_bytes().expect("bytes")),
+                        Some((16, 9))
+                    );
+                } else {
+                    let circles = m.get_field_by_name("circles").expect("circles");
+                    assert_eq!(circles.as_list().map(<[_]>::len), Some(2));
+                }
+                got.insert(topic.clone());
+            }
+            _ => {}
+        }
+    }
+    let _ = session.close().await;
+    drop(server);
+}

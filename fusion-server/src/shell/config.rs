@@ -456,6 +456,11 @@ learn_restitution = true
 [record]
 dir = "logs"
 max_mb = 200
+views = false
+
+[limits]
+view_rate_hz = 4
+view_burst = 6
 "#;
 
     #[test]
@@ -478,6 +483,8 @@ max_mb = 200
         assert!(tracker.learn_restitution);
         assert_eq!(cfg.engine.roster.as_ref().map(|r| r.len()), Some(2));
         assert_eq!(f.record.max_mb, Some(200.0));
+        assert!(!cfg.record_views, "[record] views = false");
+        assert_eq!((cfg.views.rate_hz, cfg.views.burst), (4.0, 6.0));
         Ok(())
     }
 

@@ -149,3 +149,62 @@ impl ViewHub {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proto::Camera;
+    use proto::test_support::camera_view;
+
+    /// A match log that keeps the topics it is given.
+    #[derive(Debug, Default)]
+    struct Topics(Mutex<Vec<String>>);
+
+    impl MatchLog for Topics {
+        fn log(&self, _: LogKind, topic: &str, _: Stamp, _: &[u8]) {
+            self.0
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .push(topic.to_string());
+        }
+
+        fn counts(&self) -> (u64, u64) {
+            (0, 0)
+        }
+    }
+
+    const T0: Stamp = Stamp(1_700_000_000_000_000_000);
+
+    fn offer(hub: &ViewHub, log: &Arc<dyn MatchLog>) -> bool {
+        let keys = KeySpace::default();
+        let key = keys.robot_view("miro1", Camera::Left).unwrap_or_default();
+        let payload = proto::encode(&camera_view("miro1", Camera::Left, 0, T0));
+        hub.on_view(&key, &payload, T0, Some(log), None)
+    }
+
+    #[test]
+    fn kept_views_are_logged_unless_the_settings_say_not() {
+        let topics = Arc::new(Topics::default());
+        let log: Arc<dyn MatchLog> = topics.clone();
+        let hub = ViewHub::new(KeySpace::default());
+        let mut stream = hub.stream.subscribe();
+        assert!(offer(&hub, &log));
+        let logged = topics.0.lock().map(|t| t.clone()).unwrap_or_default();
+        assert_eq!(
+            logged,
+            [
+                "/robots/miro1/left/image",
+                "/robots/miro1/left/annotations",
+                "rf/robots/miro1/view/left"
+            ]
+        );
+        assert!(stream.try_recv().is_ok(), "pushed to the page's stream");
+
+        let topics = Arc::new(Topics::default());
+        let log: Arc<dyn MatchLog> = topics.clone();
+        hub.configure(KeySpace::default(), ViewLimits::default(), false);
+        assert!(offer(&hub, &log), "still kept and served");
+        assert!(topics.0.lock().map(|t| t.is_empty()).unwrap_or(false));
+        assert_eq!(hub.counts().kept, 1);
+    }
+}
