@@ -276,7 +276,7 @@ async fn views_stream_live_to_foxglove() {
     use futures_util::SinkExt;
     use tokio_tungstenite::tungstenite::{client::IntoClientRequest, protocol::Message};
 
-    let (mut server, endpoint, _addr) = start_server(&["--foxglove", "127.0.0.1:0"]);
+    let (server, endpoint, _addr) = start_server(&["--foxglove", "127.0.0.1:0"]);
     let line = server.line_starting("foxglove ws://", Duration::from_secs(30));
     let url = line.trim_start_matches("foxglove ").to_string();
     let mut request = url.into_client_request().expect("request");
