@@ -73,7 +73,14 @@ pub struct SceneRecord {
 
 /// The scene's schemas, for a match log's channels: Foxglove's protobuf descriptors.
 pub fn schemas() -> Vec<Arc<Schema>> {
-    [SceneUpdate::get_schema(), FrameTransforms::get_schema()]
+    protobuf_schemas([SceneUpdate::get_schema(), FrameTransforms::get_schema()])
+}
+
+/// Foxglove's descriptors of some of its messages, as a match log's schemas.
+pub(crate) fn protobuf_schemas(
+    schemas: impl IntoIterator<Item = Option<foxglove::Schema>>,
+) -> Vec<Arc<Schema>> {
+    schemas
         .into_iter()
         .flatten()
         .map(|s| {
@@ -132,7 +139,7 @@ pub fn transforms(input: &SceneInput) -> FrameTransforms {
 }
 
 /// A message in its wire encoding (protobuf).
-fn encode<M: Encode>(message: &M) -> Vec<u8> {
+pub(crate) fn encode<M: Encode>(message: &M) -> Vec<u8> {
     let mut buf = Vec::with_capacity(message.encoded_len().unwrap_or(256));
     // Encoding into a growable buffer cannot run out of room.
     let _ = message.encode(&mut buf);

@@ -7,10 +7,11 @@
 use crate::camera_views::StoredView;
 use crate::matchlog::read::LogMessage;
 use crate::matchlog::record::Schema;
+use crate::scene::encode;
 use foxglove::messages::{
     CircleAnnotation, Color, CompressedImage, ImageAnnotations, Point2, TextAnnotation,
 };
-use foxglove::{Decode, Encode};
+use foxglove::{Decode, Encode as _};
 use proto::{CameraView, CandidateOutcome, Stamp, camera_chunk};
 use std::sync::Arc;
 
@@ -46,32 +47,14 @@ pub fn frame_id(view: &CameraView) -> String {
 
 /// The schemas of the image and annotation channels: Foxglove's protobuf descriptors.
 pub fn schemas() -> Vec<Arc<Schema>> {
-    [
+    crate::scene::protobuf_schemas([
         CompressedImage::get_schema(),
         ImageAnnotations::get_schema(),
-    ]
-    .into_iter()
-    .flatten()
-    .map(|s| {
-        Arc::new(Schema::encoded(
-            s.name,
-            s.encoding,
-            s.data.into_owned(),
-            "protobuf",
-        ))
-    })
-    .collect()
+    ])
 }
 
 fn timestamp(stamp: Stamp) -> foxglove::messages::Timestamp {
     crate::scene::timestamp(stamp)
-}
-
-fn encode<M: Encode>(message: &M) -> Vec<u8> {
-    let mut buf = Vec::with_capacity(message.encoded_len().unwrap_or(1024));
-    // Encoding into a growable buffer cannot run out of room.
-    let _ = message.encode(&mut buf);
-    buf
 }
 
 /// The view's image, stamped with its capture time.

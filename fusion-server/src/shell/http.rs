@@ -197,12 +197,26 @@ async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
     live.stats.ws_clients.fetch_add(1, Relaxed);
     let limit = live.ws_send_timeout();
     let first = live.current_view().to_string();
-    let mut open = send_within(&live, &mut socket, first, limit).await;
+    if send_within(&live, &mut socket, first, limit).await {
+        pump(&live, &mut socket, &mut rx, limit).await;
+    }
+    live.stats.ws_clients.fetch_sub(1, Relaxed);
+}
+
+/// Sends each frame of `rx` to the client until it goes away or is too slow; frames it
+/// skipped or lost with it are counted.
+async fn pump(
+    live: &Live,
+    socket: &mut WebSocket,
+    rx: &mut tokio::sync::broadcast::Receiver<Arc<str>>,
+    limit: std::time::Duration,
+) {
+    let mut open = true;
     while open {
         tokio::select! {
             frame = rx.recv() => match frame {
                 Ok(f) => {
-                    open = send_within(&live, &mut socket, f.as_ref(), limit).await;
+                    open = send_within(live, socket, f.as_ref(), limit).await;
                     if open {
                         live.stats.ws_frames_sent.fetch_add(1, Relaxed);
                     } else {
@@ -220,7 +234,6 @@ async fn serve_stream(live: Arc<Live>, mut socket: WebSocket) {
             }
         }
     }
-    live.stats.ws_clients.fetch_sub(1, Relaxed);
 }
 
 /// Sends one frame within `limit`; false when the client is gone or too slow (then it is

@@ -2,16 +2,15 @@
 //! newest view (the whole message, image included, or the JPEG alone), and a WebSocket that
 //! pushes each view as it is kept.
 
-use super::{error, json_text, send_within};
+use super::{error, json_text, pump, send_within};
 use crate::shell::live::Live;
-use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::ws::{WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use proto::camera_of_chunk;
 use std::sync::Arc;
 use std::sync::atomic::Ordering::Relaxed;
-use tokio::sync::broadcast::error::RecvError;
 
 /// `GET /api/views`: the newest view of every camera, without the images, as a JSON array
 /// of `CameraView`s (`jpeg_base64` empty) with the time each arrived (`received`).
@@ -82,7 +81,7 @@ pub async fn image(
 
 /// `GET /api/views/stream` (WebSocket): every camera's newest view at once, then each view
 /// as it is kept, as `CameraView` JSON text frames. A client that falls behind skips the
-/// oldest (counted with the live stream's skipped frames); one that stops reading is
+/// oldest (counted with the live stream's frames: sent, skipped); one that stops reading is
 /// dropped after the stream's send timeout.
 pub async fn stream(State(live): State<Arc<Live>>, ws: WebSocketUpgrade) -> Response {
     ws.on_upgrade(move |socket| serve_views(live, socket))
@@ -98,21 +97,8 @@ async fn serve_views(live: Arc<Live>, mut socket: WebSocket) {
             open = send_within(&live, &mut socket, v.json.as_ref(), limit).await;
         }
     }
-    while open {
-        tokio::select! {
-            frame = rx.recv() => match frame {
-                Ok(f) => {
-                    open = send_within(&live, &mut socket, f.as_ref(), limit).await;
-                }
-                Err(RecvError::Lagged(n)) => {
-                    live.stats.ws_frames_dropped.fetch_add(n, Relaxed);
-                }
-                Err(RecvError::Closed) => open = false,
-            },
-            incoming = socket.recv() => {
-                open = matches!(incoming, Some(Ok(m)) if !matches!(m, Message::Close(_)));
-            }
-        }
+    if open {
+        pump(&live, &mut socket, &mut rx, limit).await;
     }
     live.stats.ws_clients.fetch_sub(1, Relaxed);
 }
