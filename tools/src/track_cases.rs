@@ -10,7 +10,14 @@
 //!   restitution 0.85, no tangential loss), struck every 2.5 s at 2–4 m/s: many bounces a
 //!   second.
 //!
-//! Both are made here, from physics written here: they are *synthetic*, never to be taken
+//! - `puck-hits`: the air-hockey table of a real recording's kind: a 2 m × 1 m table, little
+//!   friction (0.05 m/s²), walls returning 0.9 of the normal speed, struck by mallets
+//!   every 0.3–1.5 s at speeds of median about 1.5 m/s and up to 5 m/s (most of its motion
+//!   between strikes is bounces off the walls); 60 s at 120 Hz.
+//! - `kick-on-arrival`: as `relocations`, but the ball is kicked the moment it is put
+//!   down (after 0.05 s), so a tracker sees a ball appear somewhere new already moving.
+//!
+//! All are made here, from physics written here: they are *synthetic*, never to be taken
 //! for recordings. They exercise the evaluation on motion the simulator's scenarios lack
 //! (relocations, long bounce sequences); only real recordings say how the core does on a
 //! real floor.
@@ -19,7 +26,7 @@ use crate::tracks::TrackSample;
 use sim::Rng;
 
 /// The cases, by name.
-pub const CASES: [&str; 2] = ["relocations", "puck"];
+pub const CASES: [&str; 4] = ["relocations", "puck", "puck-hits", "kick-on-arrival"];
 
 /// One case's track, its pitch (`LxW`, for `--pitch`) and its `# source:` line.
 #[derive(Debug, Clone)]
@@ -81,13 +88,24 @@ const STEP_S: f64 = 0.001;
 pub fn case(name: &str, seed: u64) -> Option<Case> {
     let mut rng = Rng::new(seed);
     match name {
-        "relocations" => Some(relocations(&mut rng, seed)),
+        "relocations" => Some(relocations(&mut rng, seed, Rest::Settle)),
+        "kick-on-arrival" => Some(relocations(&mut rng, seed, Rest::KickOnArrival)),
         "puck" => Some(puck(&mut rng, seed)),
+        "puck-hits" => Some(puck_hits(&mut rng, seed)),
         _ => None,
     }
 }
 
-fn relocations(rng: &mut Rng, seed: u64) -> Case {
+/// How long a relocated ball rests before its kick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Rest {
+    /// 0.5–1 s: a tracker sees it still first.
+    Settle,
+    /// 0.05 s: kicked as it is put down.
+    KickOnArrival,
+}
+
+fn relocations(rng: &mut Rng, seed: u64, rest: Rest) -> Case {
     let (len, wid, r) = (9.0, 6.0, 0.04);
     let ph = Physics {
         half: [len / 2.0 - r, wid / 2.0 - r],
@@ -108,7 +126,10 @@ fn relocations(rng: &mut Rng, seed: u64) -> Case {
     };
     for kick in 0..10 {
         // At rest for a moment, then kicked.
-        let rest_s = rng.range(0.5, 1.0);
+        let rest_s = match rest {
+            Rest::Settle => rng.range(0.5, 1.0),
+            Rest::KickOnArrival => 0.05,
+        };
         let speed = rng.range(1.5, 4.0);
         let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
         let mut clock = 0.0;
@@ -145,15 +166,19 @@ fn relocations(rng: &mut Rng, seed: u64) -> Case {
             };
         }
     }
+    let (name, kicked) = match rest {
+        Rest::Settle => ("relocations", ""),
+        Rest::KickOnArrival => ("kick-on-arrival", ", kicked 0.05 s after it is put down"),
+    };
     Case {
         samples,
         pitch: "9x6",
         source: format!(
             "SYNTHETIC, not a real recording: ten kicks on a 9 m x 6 m walled pitch, the ball \
-             picked up and put down 2 m or more away between them; slide 3 m/s2 to 0.64 of the \
-             kick speed then roll 0.3 m/s2, walls 0.6 normal and 0.9 tangential; 100 Hz; \
-             written by `cargo run --release -p tools --bin sim_track -- --case relocations \
-             --seed {seed}`"
+             picked up and put down 2 m or more away between them{kicked}; slide 3 m/s2 to \
+             0.64 of the kick speed then roll 0.3 m/s2, walls 0.6 normal and 0.9 tangential; \
+             100 Hz; written by `cargo run --release -p tools --bin sim_track -- --case \
+             {name} --seed {seed}`"
         ),
     }
 }
@@ -203,6 +228,55 @@ fn puck(rng: &mut Rng, seed: u64) -> Case {
     }
 }
 
+fn puck_hits(rng: &mut Rng, seed: u64) -> Case {
+    let (len, wid, r) = (2.0, 1.0, 0.03);
+    let ph = Physics {
+        half: [len / 2.0 - r, wid / 2.0 - r],
+        slide_mps2: 0.05,
+        roll_mps2: 0.05,
+        slide_until: 0.0,
+        restitution: 0.9,
+        tangential: 1.0,
+    };
+    let rate_s = 1.0 / 120.0;
+    let mut samples = Vec::new();
+    let mut b = Ball {
+        p: [0.0, 0.0],
+        v: [0.0, 0.0],
+        kick_speed: 0.0,
+    };
+    let (mut t, mut next_sample, mut next_strike) = (0.0, 0.0, 0.2);
+    while t < 60.0 {
+        if t >= next_strike {
+            // Most strikes gentle, a few hard: 0.5 m/s plus 4.5 m/s times u³.
+            let u = rng.range(0.0, 1.0);
+            let speed = 0.5 + 4.5 * u * u * u;
+            let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+            ph.kick(&mut b, speed, heading);
+            next_strike += rng.range(0.3, 1.5);
+        }
+        if t >= next_sample - 1e-9 {
+            samples.push(TrackSample {
+                t_s: t,
+                position_m: b.p,
+            });
+            next_sample += rate_s;
+        }
+        ph.step(&mut b, STEP_S);
+        t += STEP_S;
+    }
+    Case {
+        samples,
+        pitch: "2x1",
+        source: format!(
+            "SYNTHETIC, not a real recording: a puck on a 2 m x 1 m walled table, 0.05 m/s2, \
+             restitution 0.9, struck every 0.3-1.5 s at 0.5-5 m/s (most strikes gentle); \
+             120 Hz, 60 s; written by `cargo run --release -p tools --bin sim_track -- --case \
+             puck-hits --seed {seed}`"
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,6 +314,22 @@ mod tests {
         };
         let r = case("relocations", 1).expect("relocations");
         assert_eq!(gaps(&r), 9);
+        let k = case("kick-on-arrival", 1).expect("kick-on-arrival");
+        assert_eq!(gaps(&k), 9);
+        // Moving again within a tenth of a second of each reappearance.
+        let restarts = k
+            .samples
+            .windows(2)
+            .enumerate()
+            .filter(|(_, s)| s[1].t_s - s[0].t_s > 0.5)
+            .filter(|(i, _)| {
+                let at = &k.samples[i + 1..];
+                at.iter()
+                    .take_while(|s| s.t_s - at[0].t_s < 0.1)
+                    .any(|s| s.position_m != at[0].position_m)
+            })
+            .count();
+        assert_eq!(restarts, 9);
         let p = case("puck", 1).expect("puck");
         let reversals = p
             .samples
