@@ -11,13 +11,16 @@
 
 pub mod images;
 
-use crate::engine::TokenBucket;
+use crate::engine::RateBuckets;
 use proto::{
     Camera, CameraView, KeySpace, MAX_VIEW_PAYLOAD_BYTES, Pitch, Stamp, ValidationContext,
     camera_of_chunk,
 };
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::sync::Arc;
+
+/// Robots whose view rate is remembered; beyond, every bucket starts full again.
+const RATE_BUCKETS: usize = 256;
 
 /// Bounds on what robots may send.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,20 +103,13 @@ pub struct StoredView {
     pub received: Stamp,
 }
 
-impl StoredView {
-    /// The view's summary: the metadata, `jpeg_base64` empty, as JSON.
-    pub fn meta_json(&self) -> String {
-        serde_json::to_string(&self.meta).unwrap_or_default()
-    }
-}
-
 /// The newest view of each camera, and what was refused.
 #[derive(Debug, Clone)]
 pub struct CameraViews {
     keys: KeySpace,
     limits: ViewLimits,
     latest: BTreeMap<(String, Camera), Arc<StoredView>>,
-    buckets: HashMap<String, TokenBucket>,
+    buckets: RateBuckets<RATE_BUCKETS>,
     accepted: u64,
     refused: BTreeMap<&'static str, u64>,
 }
@@ -124,7 +120,7 @@ impl CameraViews {
             keys,
             limits,
             latest: BTreeMap::new(),
-            buckets: HashMap::new(),
+            buckets: RateBuckets::default(),
             accepted: 0,
             refused: BTreeMap::new(),
         }
@@ -163,7 +159,10 @@ impl CameraViews {
             });
         }
         let (robot, camera) = self.key_parts(key).ok_or(ViewRefusal::BadKey)?;
-        if !self.within_rate(robot, now) {
+        if !self
+            .buckets
+            .take(robot, now, self.limits.rate_hz, self.limits.burst)
+        {
             return Err(ViewRefusal::RateLimited(robot.to_string()));
         }
         let mut view: CameraView = proto::decode(payload).map_err(|e| match e {
@@ -220,21 +219,6 @@ impl CameraViews {
             .strip_prefix(robot)?
             .strip_prefix("/view/")?;
         Some((robot, camera_of_chunk(rest)?))
-    }
-
-    fn within_rate(&mut self, robot: &str, now: Stamp) -> bool {
-        let (rate, burst) = (self.limits.rate_hz, self.limits.burst);
-        if let Some(b) = self.buckets.get_mut(robot) {
-            return b.take(now, rate, burst);
-        }
-        // Bounded like the views: ids beyond it start over with full buckets.
-        if self.buckets.len() >= self.limits.max_cameras {
-            self.buckets.clear();
-        }
-        let mut b = TokenBucket::full(burst);
-        let ok = b.take(now, rate, burst);
-        self.buckets.insert(robot.to_string(), b);
-        ok
     }
 
     fn keep(&mut self, v: Arc<StoredView>) {

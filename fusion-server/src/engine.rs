@@ -15,7 +15,7 @@ use thiserror::Error;
 mod admission;
 mod clock_offset;
 mod recent;
-pub use admission::{AdmissionConfig, SWEEP_EVERY_S, TokenBucket};
+pub use admission::{AdmissionConfig, RateBuckets, SWEEP_EVERY_S, TokenBucket};
 pub use clock_offset::{ClockCheck, ClockJump, OffsetWindow, common_floor_s};
 pub use recent::{RecentObs, RecentObservations};
 

@@ -183,14 +183,28 @@ fn relocations(rng: &mut Rng, seed: u64, rest: Rest) -> Case {
     }
 }
 
-fn puck(rng: &mut Rng, seed: u64) -> Case {
+/// A strike of a puck: its speed (m/s), heading (rad) and the time to the next (s).
+struct Strike {
+    speed: f64,
+    heading: f64,
+    gap_s: f64,
+}
+
+/// A puck on a 2 m × 1 m walled table (0.05 m/s², no tangential loss), struck from 0.2 s
+/// on as `strike` says, sampled at 120 Hz for `duration_s`.
+fn struck_puck(
+    rng: &mut Rng,
+    restitution: f64,
+    duration_s: f64,
+    strike: impl Fn(&mut Rng) -> Strike,
+) -> Vec<TrackSample> {
     let (len, wid, r) = (2.0, 1.0, 0.03);
     let ph = Physics {
         half: [len / 2.0 - r, wid / 2.0 - r],
         slide_mps2: 0.05,
         roll_mps2: 0.05,
         slide_until: 0.0,
-        restitution: 0.85,
+        restitution,
         tangential: 1.0,
     };
     let rate_s = 1.0 / 120.0;
@@ -201,11 +215,11 @@ fn puck(rng: &mut Rng, seed: u64) -> Case {
         kick_speed: 0.0,
     };
     let (mut t, mut next_sample, mut next_strike) = (0.0, 0.0, 0.2);
-    while t < 30.0 {
+    while t < duration_s {
         if t >= next_strike {
-            let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
-            ph.kick(&mut b, rng.range(2.0, 4.0), heading);
-            next_strike += 2.5;
+            let s = strike(rng);
+            ph.kick(&mut b, s.speed, s.heading);
+            next_strike += s.gap_s;
         }
         if t >= next_sample - 1e-9 {
             samples.push(TrackSample {
@@ -217,6 +231,18 @@ fn puck(rng: &mut Rng, seed: u64) -> Case {
         ph.step(&mut b, STEP_S);
         t += STEP_S;
     }
+    samples
+}
+
+fn puck(rng: &mut Rng, seed: u64) -> Case {
+    let samples = struck_puck(rng, 0.85, 30.0, |rng| {
+        let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+        Strike {
+            speed: rng.range(2.0, 4.0),
+            heading,
+            gap_s: 2.5,
+        }
+    });
     Case {
         samples,
         pitch: "2x1",
@@ -229,42 +255,17 @@ fn puck(rng: &mut Rng, seed: u64) -> Case {
 }
 
 fn puck_hits(rng: &mut Rng, seed: u64) -> Case {
-    let (len, wid, r) = (2.0, 1.0, 0.03);
-    let ph = Physics {
-        half: [len / 2.0 - r, wid / 2.0 - r],
-        slide_mps2: 0.05,
-        roll_mps2: 0.05,
-        slide_until: 0.0,
-        restitution: 0.9,
-        tangential: 1.0,
-    };
-    let rate_s = 1.0 / 120.0;
-    let mut samples = Vec::new();
-    let mut b = Ball {
-        p: [0.0, 0.0],
-        v: [0.0, 0.0],
-        kick_speed: 0.0,
-    };
-    let (mut t, mut next_sample, mut next_strike) = (0.0, 0.0, 0.2);
-    while t < 60.0 {
-        if t >= next_strike {
-            // Most strikes gentle, a few hard: 0.5 m/s plus 4.5 m/s times u³.
-            let u = rng.range(0.0, 1.0);
-            let speed = 0.5 + 4.5 * u * u * u;
-            let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
-            ph.kick(&mut b, speed, heading);
-            next_strike += rng.range(0.3, 1.5);
+    let samples = struck_puck(rng, 0.9, 60.0, |rng| {
+        // Most strikes gentle, a few hard: 0.5 m/s plus 4.5 m/s times u³.
+        let u = rng.range(0.0, 1.0);
+        let speed = 0.5 + 4.5 * u * u * u;
+        let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+        Strike {
+            speed,
+            heading,
+            gap_s: rng.range(0.3, 1.5),
         }
-        if t >= next_sample - 1e-9 {
-            samples.push(TrackSample {
-                t_s: t,
-                position_m: b.p,
-            });
-            next_sample += rate_s;
-        }
-        ph.step(&mut b, STEP_S);
-        t += STEP_S;
-    }
+    });
     Case {
         samples,
         pitch: "2x1",

@@ -37,6 +37,34 @@ impl TokenBucket {
     }
 }
 
+/// A token bucket per robot id, for at most `CAPACITY` ids: beyond, it starts over (every
+/// bucket full again), so made-up ids cannot take the server's memory.
+#[derive(Debug, Clone, Default)]
+pub struct RateBuckets<const CAPACITY: usize> {
+    buckets: std::collections::HashMap<String, TokenBucket>,
+}
+
+impl<const CAPACITY: usize> RateBuckets<CAPACITY> {
+    /// Takes a token from `robot`'s bucket at `now` (a new robot's starts full).
+    pub fn take(&mut self, robot: &str, now: Stamp, rate_hz: f64, burst: f64) -> bool {
+        if let Some(b) = self.buckets.get_mut(robot) {
+            return b.take(now, rate_hz, burst);
+        }
+        if self.buckets.len() >= CAPACITY {
+            self.buckets.clear();
+        }
+        let mut b = TokenBucket::full(burst);
+        let ok = b.take(now, rate_hz, burst);
+        self.buckets.insert(robot.to_string(), b);
+        ok
+    }
+
+    /// Forgets every bucket.
+    pub fn clear(&mut self) {
+        self.buckets.clear();
+    }
+}
+
 /// How robots are admitted and forgotten.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AdmissionConfig {

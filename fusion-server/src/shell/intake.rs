@@ -16,10 +16,10 @@
 //! are dropped first when it is full, so that a flood of made-up ids cannot push out the
 //! observations of robots that have been fusing.
 
-use crate::engine::TokenBucket;
+use crate::engine::RateBuckets;
 use crate::shell::live::Live;
 use proto::Stamp;
-use std::collections::{HashMap, HashSet, VecDeque};
+use std::collections::{HashSet, VecDeque};
 use std::sync::atomic::Ordering::Relaxed;
 use std::sync::{Arc, Condvar, Mutex};
 
@@ -95,7 +95,7 @@ struct QueueState {
     /// Robot ids (key chunks) with a history.
     known: HashSet<String>,
     /// Each robot's rate bucket.
-    buckets: HashMap<String, TokenBucket>,
+    buckets: RateBuckets<KNOWN_CAPACITY>,
     refused: Refused,
 }
 
@@ -123,19 +123,7 @@ impl QueueState {
 
     /// Takes a token from `robot`'s bucket at `now`.
     fn within_rate(&mut self, robot: &str, now: Stamp, limit: Limit) -> bool {
-        if limit.rate_hz.is_infinite() {
-            return true;
-        }
-        if let Some(b) = self.buckets.get_mut(robot) {
-            return b.take(now, limit.rate_hz, limit.burst);
-        }
-        if self.buckets.len() >= KNOWN_CAPACITY {
-            self.buckets.clear();
-        }
-        let mut b = TokenBucket::full(limit.burst);
-        let ok = b.take(now, limit.rate_hz, limit.burst);
-        self.buckets.insert(robot.to_string(), b);
-        ok
+        limit.rate_hz.is_infinite() || self.buckets.take(robot, now, limit.rate_hz, limit.burst)
     }
 
     /// Drops the front of `unproven` (else of `proven`) for room.
