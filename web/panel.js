@@ -16,7 +16,7 @@ function cell(row, text) {
 
 export function showBall(b) {
   if (!b) {
-    for (const id of ["ball-status", "ball-existence", "ball-pos", "ball-speed", "ball-ellipse", "ball-decel", "ball-restitution", "ball-stop", "ball-contributors"]) {
+    for (const id of ["ball-status", "ball-existence", "ball-pos", "ball-speed", "ball-ellipse", "ball-decel", "ball-restitution", "ball-events", "ball-stop", "ball-contributors"]) {
       el(id).textContent = "–";
     }
     el("ball").textContent = "ball: not seen yet";
@@ -37,6 +37,7 @@ export function showBall(b) {
   el("ball-ellipse").textContent = e ? `${(100 * e.major_m).toFixed(1)} × ${(100 * e.minor_m).toFixed(1)} cm` : "–";
   el("ball-decel").textContent = `${fixed(m.rolling_decel_mps2, 3, " m/s²")} (${m.decel_samples} samples)`;
   el("ball-restitution").textContent = `${fixed(m.wall_restitution, 2)} (${m.restitution_samples} bounces)`;
+  el("ball-events").textContent = `${m.bounces_seen ?? 0} bounces, ${m.kicks_inferred ?? 0} kicks inferred`;
   el("ball-stop").textContent = stop
     ? `in ${stop.t_s.toFixed(1)} s at (${stop.position_m[0].toFixed(2)}, ${stop.position_m[1].toFixed(2)}) m`
     : "–";

@@ -14,7 +14,7 @@ use crate::scenarios::for_each;
 use crate::track_events::TrackEvents;
 use crate::track_obs::{ObserverSetup, capture_times_s, observe};
 use fusion_server::fly;
-use fusion_server::{Bounds, Fusion, FusionConfig, FusionCounters, MotionModel};
+use fusion_server::{Bounds, Fusion, FusionConfig, FusionCounters, MotionEventKind, MotionModel};
 use fusion_server::{Engine, EngineConfig};
 use proto::{BallStatus, ModelParams, Pitch, Prediction, Stamp, WallSide};
 use serde::Serialize;
@@ -59,11 +59,23 @@ impl TrackMethod {
         }
     }
 
+    /// Whether the method tells bounces and kicks (and so is scored on them).
+    pub fn infers_events(self) -> bool {
+        matches!(self, TrackMethod::Fusion | TrackMethod::FixedPhysics)
+    }
+
     /// Whether the method predicts wall bounces (and so is scored on their timing).
     pub fn predicts_bounces(self) -> bool {
         self != TrackMethod::ConstantVelocity
     }
 }
+
+/// A core's bounce or kick within this of a track's bounce is about it; a bounce with a
+/// push this close is not a clear one.
+pub const EVENT_MATCH_S: f64 = 0.2;
+
+/// Two of the core's events of one kind this close are one, found again.
+const SAME_EVENT_S: f64 = 0.05;
 
 /// Within this of the track, a state has found a relocated ball.
 pub const RELOCATION_FOUND_M: f64 = 0.3;
@@ -99,6 +111,8 @@ pub struct TrackTick {
     pub model: Option<ModelParams>,
     /// The predicted wall bounces: absolute time and wall (fusion methods only).
     pub bounces: Vec<(f64, WallSide)>,
+    /// The core's last bounces and inferred kicks, at track time (fusion methods only).
+    pub motion_events: Vec<(f64, MotionEventKind)>,
 }
 
 /// The position on a predicted path `t_s` after its stamp, interpolated between samples.
@@ -152,6 +166,10 @@ fn fusion_tick(f: &Fusion, at: Stamp, t_s: f64) -> Option<TrackTick> {
             .bounces
             .iter()
             .map(|b| (t_s + lead_s + b.t_s, b.wall))
+            .collect(),
+        motion_events: f
+            .motion_events()
+            .map(|(at_e, kind)| (t_s + at_e.secs_since(at), kind))
             .collect(),
     })
 }
@@ -212,6 +230,7 @@ pub fn run_method(
                         status: None,
                         model: None,
                         bounces: Vec::new(),
+                        motion_events: Vec::new(),
                     })
                 },
             );
@@ -261,6 +280,7 @@ pub fn run_method(
                         status: None,
                         model: None,
                         bounces,
+                        motion_events: Vec::new(),
                     })
                 },
             );
@@ -306,6 +326,16 @@ pub struct TrackSamples {
     pub relocation_found_s: Vec<f64>,
     /// ... and the relocations no state came within that of before the next break.
     pub relocations_not_found: usize,
+    /// The track's wall bounces with no course change within [`EVENT_MATCH_S`] (fusion methods),
+    /// those the core went through as bounces, and those it took for kicks.
+    pub clear_bounces: usize,
+    pub bounces_recognised: usize,
+    pub bounces_taken_for_kicks: usize,
+    /// Kicks the core inferred, those with neither a course change nor a bounce of the
+    /// track near, and its bounces (fusion methods).
+    pub kicks_inferred: usize,
+    pub kicks_unprompted: usize,
+    pub bounces_seen: usize,
 }
 
 impl TrackSamples {
@@ -336,6 +366,12 @@ impl TrackSamples {
         self.outside_walls += o.outside_walls;
         self.relocation_found_s.extend(&o.relocation_found_s);
         self.relocations_not_found += o.relocations_not_found;
+        self.clear_bounces += o.clear_bounces;
+        self.bounces_recognised += o.bounces_recognised;
+        self.bounces_taken_for_kicks += o.bounces_taken_for_kicks;
+        self.kicks_inferred += o.kicks_inferred;
+        self.kicks_unprompted += o.kicks_unprompted;
+        self.bounces_seen += o.bounces_seen;
     }
 }
 
@@ -397,7 +433,7 @@ pub fn score_ticks(
             let Some(future) = track.position_at(t_f) else {
                 continue;
             };
-            if events.pushed_between(r.t_s, t_f) {
+            if events.course_changed_between(r.t_s, t_f) {
                 s.pushed_windows[k] += 1;
                 continue;
             }
@@ -406,7 +442,7 @@ pub fn score_ticks(
         if method.predicts_bounces()
             && let Some(b) = events.next_bounce(r.t_s)
             && b.t_s - r.t_s <= BOUNCE_WINDOW_S
-            && !events.pushed_between(r.t_s, b.t_s)
+            && !events.course_changed_between(r.t_s, b.t_s)
         {
             // The first predicted bounce off the same wall: a bounce the track's detection
             // missed (too glancing) must not be taken for this one.
@@ -425,6 +461,9 @@ pub fn score_ticks(
         }
     }
     s.onset_lag_s = onset_lags(track, events, &run.ticks);
+    if method.infers_events() {
+        score_motion_events(events, &run.ticks, &mut s);
+    }
     for d in relocation_delays(track, captures_s, &run.ticks) {
         match d {
             Some(d) => s.relocation_found_s.push(d),
@@ -440,6 +479,51 @@ pub fn score_ticks(
         s.outside_walls = c.outside_walls;
     }
     s
+}
+
+/// The core's bounces and kicks over the track (each once, though many ticks list it),
+/// matched to the track's bounces.
+fn score_motion_events(events: &TrackEvents, ticks: &[TrackTick], s: &mut TrackSamples) {
+    // The same event read at two ticks may differ: a late observation makes the core run
+    // again from before it, and find the kick a sighting earlier or later.
+    let mut seen: Vec<(f64, MotionEventKind)> = Vec::new();
+    for e in ticks.iter().flat_map(|t| &t.motion_events) {
+        if !seen
+            .iter()
+            .any(|x| x.1 == e.1 && (x.0 - e.0).abs() < SAME_EVENT_S)
+        {
+            seen.push(*e);
+        }
+    }
+    let near = |kind: MotionEventKind, t_s: f64| {
+        seen.iter()
+            .any(|e| e.1 == kind && (e.0 - t_s).abs() <= EVENT_MATCH_S)
+    };
+    s.kicks_inferred = seen.iter().filter(|e| e.1 == MotionEventKind::Kick).count();
+    s.bounces_seen = seen.len() - s.kicks_inferred;
+    s.kicks_unprompted = seen
+        .iter()
+        .filter(|e| {
+            e.1 == MotionEventKind::Kick
+                && !events.course_changed_between(e.0 - EVENT_MATCH_S, e.0 + EVENT_MATCH_S)
+                && !events
+                    .bounces
+                    .iter()
+                    .any(|b| (b.t_s - e.0).abs() <= EVENT_MATCH_S)
+        })
+        .count();
+    for b in &events.bounces {
+        if events.course_changed_between(b.t_s - EVENT_MATCH_S, b.t_s + EVENT_MATCH_S) {
+            continue;
+        }
+        s.clear_bounces += 1;
+        let kicked = near(MotionEventKind::Kick, b.t_s);
+        if kicked {
+            s.bounces_taken_for_kicks += 1;
+        } else if near(MotionEventKind::Bounce, b.t_s) {
+            s.bounces_recognised += 1;
+        }
+    }
 }
 
 /// The track's speed over the last [`RECENT_S`] before `t_s`: causal, so that a kick does

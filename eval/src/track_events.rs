@@ -24,6 +24,8 @@ pub const BOUNCE_MIN_SPEED_IN_MPS: f64 = 0.08;
 pub const BOUNCE_MIN_SPEED_OUT_MPS: f64 = 0.03;
 pub const PUSH_SPEED_GAIN_MPS: f64 = 0.25;
 pub const PUSH_LOOKBACK_S: f64 = 0.3;
+/// A course change is measured between the smoothed velocities this long apart.
+pub const STRIKE_SPAN_S: f64 = 4.0 * SMOOTHING_HALF_WINDOW_S;
 /// A push is taken to act over this span around the sample that reveals it.
 const PUSH_BEFORE_S: f64 = 2.0 * SMOOTHING_HALF_WINDOW_S;
 const PUSH_AFTER_S: f64 = SMOOTHING_HALF_WINDOW_S;
@@ -44,6 +46,12 @@ pub struct TrackEvents {
     pub bounces: Vec<TrackBounce>,
     /// Time spans `[from, to]` over which something pushed the ball.
     pub pushes: Vec<(f64, f64)>,
+    /// Time spans over which something changed the ball's course away from the walls
+    /// (a push, or a strike that slowed or turned it): the velocity changed by more than
+    /// [`PUSH_SPEED_GAIN_MPS`] across [`STRIKE_SPAN_S`] while the ball was farther from
+    /// every wall than [`BOUNCE_NEAR_RADII`] radii and the distance it covers in half that
+    /// span and the smoothing's reach.
+    pub course_changes: Vec<(f64, f64)>,
 }
 
 impl TrackEvents {
@@ -64,11 +72,13 @@ impl TrackEvents {
             pushes.push((before, t_s + PUSH_BEFORE_S));
         }
         pushes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let course_changes = course_changes(&times_s, &pos, &velocity_mps, bounds, near_m);
         TrackEvents {
             times_s,
             velocity_mps,
             bounces,
             pushes,
+            course_changes,
         }
     }
 
@@ -91,6 +101,16 @@ impl TrackEvents {
     /// Whether something pushed the ball within (`t0_s`, `t1_s`].
     pub fn pushed_between(&self, t0_s: f64, t1_s: f64) -> bool {
         self.pushes.iter().any(|(a, b)| *a <= t1_s && *b > t0_s)
+    }
+
+    /// Whether something pushed the ball or changed its course away from the walls within
+    /// (`t0_s`, `t1_s`].
+    pub fn course_changed_between(&self, t0_s: f64, t1_s: f64) -> bool {
+        self.pushed_between(t0_s, t1_s)
+            || self
+                .course_changes
+                .iter()
+                .any(|(a, b)| *a <= t1_s && *b > t0_s)
     }
 
     /// The first bounce after `t_s`.
@@ -247,6 +267,51 @@ fn pushes(t: &[f64], vel: &[[f64; 2]]) -> Vec<(f64, f64)> {
             continue;
         }
         let span = (t[j] - PUSH_BEFORE_S, t[j] + PUSH_AFTER_S);
+        match out.last_mut() {
+            Some(last) if last.1 >= span.0 => last.1 = span.1,
+            _ => out.push(span),
+        }
+    }
+    out
+}
+
+/// Spans over which the velocity changed by more than [`PUSH_SPEED_GAIN_MPS`] across
+/// [`STRIKE_SPAN_S`] away from the walls (see [`TrackEvents::course_changes`]).
+fn course_changes(
+    t: &[f64],
+    pos: &[[f64; 2]],
+    vel: &[[f64; 2]],
+    bounds: &Bounds,
+    near_m: f64,
+) -> Vec<(f64, f64)> {
+    let half = 0.5 * STRIKE_SPAN_S;
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for j in 0..t.len() {
+        let (a, b) = (
+            t.partition_point(|x| *x < t[j] - half),
+            t.partition_point(|x| *x <= t[j] + half),
+        );
+        let (Some(va), Some(vb)) = (vel.get(a), b.checked_sub(1).and_then(|k| vel.get(k))) else {
+            continue;
+        };
+        let dv = (vb[0] - va[0]).hypot(vb[1] - va[1]);
+        if dv <= PUSH_SPEED_GAIN_MPS {
+            continue;
+        }
+        // A bounce shows in the smoothed velocities this far either side of it.
+        let reach =
+            near_m + (half + SMOOTHING_HALF_WINDOW_S) * va[0].hypot(va[1]).max(vb[0].hypot(vb[1]));
+        let p = pos[j];
+        let gaps = [
+            bounds.x_max - p[0],
+            p[0] - bounds.x_min,
+            bounds.y_max - p[1],
+            p[1] - bounds.y_min,
+        ];
+        if (0..4).any(|i| bounds.walls[i] && gaps[i] <= reach) {
+            continue;
+        }
+        let span = (t[j] - half, t[j] + half);
         match out.last_mut() {
             Some(last) if last.1 >= span.0 => last.1 = span.1,
             _ => out.push(span),

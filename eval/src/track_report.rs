@@ -3,7 +3,8 @@
 
 use crate::plot::{Chart, Marker, PALETTE, Series, Style};
 use crate::track_eval::{
-    BOUNCE_WINDOW_S, MOVING_MPS, RELOCATION_FOUND_M, TICK_S, TrackMethod, TrackRun, TrackSamples,
+    BOUNCE_WINDOW_S, EVENT_MATCH_S, MOVING_MPS, RELOCATION_FOUND_M, TICK_S, TrackMethod, TrackRun,
+    TrackSamples,
 };
 use crate::track_obs::ObserverSetup;
 use proto::Pitch;
@@ -89,6 +90,24 @@ pub struct MethodSummary {
     pub relocation_found_s: Spread,
     pub relocation_found_max_s: Option<f64>,
     pub relocations_not_found: usize,
+    /// The track's wall bounces with no push near, and how the core took them (methods
+    /// that tell bounces from kicks).
+    pub bounces: Option<BounceRecognition>,
+}
+
+/// The track's clear wall bounces (no push within [`EVENT_MATCH_S`]) as the core took them.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct BounceRecognition {
+    pub clear_bounces: usize,
+    pub recognised: usize,
+    pub taken_for_kicks: usize,
+    /// Share of the clear bounces recognised.
+    pub recognised_share: Option<f64>,
+    /// All the bounces the core counted, and the kicks it inferred.
+    pub bounces_seen: usize,
+    pub kicks_inferred: usize,
+    /// Kicks with neither a course change nor a bounce of the track near.
+    pub kicks_unprompted: usize,
 }
 
 impl MethodSummary {
@@ -131,6 +150,16 @@ impl MethodSummary {
             relocation_found_s: Spread::of(&s.relocation_found_s),
             relocation_found_max_s: s.relocation_found_s.iter().copied().reduce(f64::max),
             relocations_not_found: s.relocations_not_found,
+            bounces: method.infers_events().then(|| BounceRecognition {
+                clear_bounces: s.clear_bounces,
+                recognised: s.bounces_recognised,
+                taken_for_kicks: s.bounces_taken_for_kicks,
+                recognised_share: (s.clear_bounces > 0)
+                    .then(|| s.bounces_recognised as f64 / s.clear_bounces as f64),
+                bounces_seen: s.bounces_seen,
+                kicks_inferred: s.kicks_inferred,
+                kicks_unprompted: s.kicks_unprompted,
+            }),
         }
     }
 }
@@ -280,6 +309,29 @@ pub fn markdown(rep: &TracksReport) -> String {
             "| {} | {bounce} | {} | {stopped} | {lag} | {decel} | {rest} |\n",
             m.method,
             opt(m.first_estimate_s.median, |v| format!("{v:.2}")),
+        ));
+    }
+    s.push_str(&format!(
+        "\nWall bounces with nothing else changing the ball's course within {:.1} s, as the core \
+         took them: went through as a bounce (foreseen, or found at the wall) or took for a \
+         kick; all the bounces it counted and kicks it inferred, and of those kicks the ones \
+         with neither a course change nor a bounce near.\n\n\
+         | method | clear wall bounces | recognised as bounces | taken for kicks | bounces counted | kicks inferred (unprompted) |\n\
+         |---|---|---|---|---|---|\n",
+        EVENT_MATCH_S
+    ));
+    for m in &rep.methods {
+        let Some(b) = &m.bounces else { continue };
+        s.push_str(&format!(
+            "| {} | {} | {} ({}) | {} | {} | {} ({}) |\n",
+            m.method,
+            b.clear_bounces,
+            b.recognised,
+            opt(b.recognised_share, |v| format!("{:.0} %", v * 100.0)),
+            b.taken_for_kicks,
+            b.bounces_seen,
+            b.kicks_inferred,
+            b.kicks_unprompted
         ));
     }
     let relocated = |m: &MethodSummary| m.relocation_found_s.n + m.relocations_not_found;

@@ -55,7 +55,9 @@ pub use clock::{Clock, SystemClock};
 pub use engine::{AdmissionConfig, Engine, EngineConfig, MAX_ROBOTS};
 pub use estimator::motion::fly;
 pub use estimator::predict::stop;
-pub use estimator::{Bounds, Fusion, FusionConfig, FusionCounters, MotionModel};
+pub use estimator::{
+    Bounds, Fusion, FusionConfig, FusionCounters, MotionEvent, MotionEventKind, MotionModel,
+};
 pub use matchlog::read::{LogMessage, LogRead, ReadError, read_log, read_log_from, read_logs};
 pub use matchlog::record::{LogCompression, RecorderConfig, Schema, remove_earlier};
 pub use matchlog::replay::{ReplayOptions, ReplayReport, ReplaySink, replay};

@@ -134,6 +134,15 @@ pub struct ModelParams {
     /// from kicks. Absent in states from before it existed (read as 3.0).
     #[serde(default = "default_slide_decel")]
     pub slide_decel_mps2: f64,
+    /// Wall bounces the estimate went through since the server started: foreseen by its
+    /// flight, or found at a wall where surprising sightings would otherwise have been a
+    /// kick. Absent in states from before it was counted (read as 0).
+    #[serde(default)]
+    pub bounces_seen: u32,
+    /// Kicks nobody reported that the server inferred from the estimate's sightings since
+    /// it started. Absent in states from before it was counted (read as 0).
+    #[serde(default)]
+    pub kicks_inferred: u32,
 }
 
 fn default_tangential_retention() -> f64 {

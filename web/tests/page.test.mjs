@@ -143,6 +143,15 @@ async function liveChecks(browser, recordDir) {
     .then(() => check(true, "panel: every robot with rate, trust, latency, outliers and clock offset; the rejections by reason as the server counts them"))
     .catch(() => fail("the panel's robot table or rejection list does not match the server"));
 
+  // The ball's wall bounces and inferred kicks, as the server counts them in its state.
+  await until("the bounces and kicks in the panel", async () => {
+    const [text, st] = await Promise.all([page.textContent("#ball-events"), getJson(url, "/api/state")]);
+    const m = st.ball && st.ball.model;
+    return m && /^\d+ bounces, \d+ kicks inferred$/.test(text) && text;
+  }, 5000)
+    .then((text) => check(true, `panel: "${text}"`))
+    .catch(async () => fail(`the panel's bounces and kicks: "${await page.textContent("#ball-events")}"`));
+
   // The frame rate with ten robots, measured in the browser over 5 s.
   const fps = await page.evaluate(() => new Promise((resolve) => {
     let n = 0;

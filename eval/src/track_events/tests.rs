@@ -153,3 +153,45 @@ fn a_kick_from_rest_is_a_push_near_its_time() {
     assert!(!ev.pushed_between(0.2, 0.8));
     assert!(!ev.pushed_between(1.3, 2.0));
 }
+
+#[test]
+fn a_strike_that_slows_and_turns_the_ball_is_a_course_change_and_a_bounce_is_not() {
+    let b = bounds();
+    // 1.2 m/s along +x, struck at t = 1 s (x = 0) to 0.5 m/s along +y: its speed falls,
+    // so it is no push, but it changed course far from any wall.
+    let samples: Vec<TrackSample> = (0..200)
+        .map(|k| {
+            let t = k as f64 / 100.0;
+            let p = if t < 1.0 {
+                [-1.2 + 1.2 * t, 0.0]
+            } else {
+                [0.0, 0.5 * (t - 1.0)]
+            };
+            TrackSample {
+                t_s: t,
+                position_m: p,
+            }
+        })
+        .collect();
+    let ev = TrackEvents::of(&track(with_noise(samples, 0.002, 3)), &b, 0.04);
+    assert!(ev.pushes.is_empty(), "{:?}", ev.pushes);
+    assert!(
+        ev.course_changed_between(0.9, 1.1),
+        "{:?}",
+        ev.course_changes
+    );
+    assert!(!ev.course_changed_between(0.0, 0.7));
+    assert!(!ev.course_changed_between(1.3, 2.0));
+    // A head-on bounce changes the velocity as much, at the wall: no course change.
+    let (samples, truth) = Roll {
+        start_m: [0.0, 0.0],
+        velocity_mps: [1.5, 0.0],
+        restitution: 0.8,
+        ..Roll::default()
+    }
+    .run(&b);
+    assert_eq!(truth.len(), 1);
+    let ev = TrackEvents::of(&track(with_noise(samples, 0.002, 4)), &b, 0.04);
+    assert_eq!(ev.bounces.len(), 1);
+    assert!(ev.course_changes.is_empty(), "{:?}", ev.course_changes);
+}

@@ -10,7 +10,7 @@ use super::filter::{BallFilter, DECEL, RESTITUTION};
 use super::intercept::{InterceptSolution, intercept};
 use super::motion::{Bounds, speed};
 use super::predict;
-use super::tracker::{NothingSeen, ObsInput, RobotTrust, Tracker, TrackerConfig};
+use super::tracker::{MotionEventKind, NothingSeen, ObsInput, RobotTrust, Tracker, TrackerConfig};
 use super::views::{Footprint, FootprintError, Views};
 use nalgebra::Matrix2;
 use proto::{
@@ -106,8 +106,11 @@ pub struct FusionCounters {
     /// Observations that went to hypotheses other than the estimate: waiting for enough
     /// support to be promoted, or phantoms that never are.
     pub held_in_hypotheses: u64,
-    /// Kicks the tracker inferred from runs of surprising sightings.
+    /// Kicks of the estimate the tracker inferred from runs of surprising sightings.
     pub kicks_inferred: u64,
+    /// Wall bounces the estimate went through: foreseen by its flight, or found at a wall
+    /// where a run of surprising sightings would otherwise have been a kick.
+    pub bounces_seen: u64,
     /// Observations the filter could not apply: their innovation covariance was not
     /// positive definite.
     pub singular_updates: u64,
@@ -118,6 +121,10 @@ pub struct FusionCounters {
     /// Camera footprints kept, and refused (not a polygon, the whole pitch, ...).
     pub footprints_accepted: u64,
     pub footprints_rejected: u64,
+}
+
+fn saturate(n: u64) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
 }
 
 /// Finite numbers and a symmetric positive-definite covariance: what the filter can use.
@@ -221,11 +228,20 @@ impl Fusion {
             outside_walls: self.tracker().outside_walls(),
             held_in_hypotheses: self.tracker().held_in_hypotheses(),
             kicks_inferred: self.tracker().kicks_inferred(),
+            bounces_seen: self.tracker().bounces_seen(),
             singular_updates: self.tracker().singular_updates(),
             robot_slots_reused: self.tracker().robot_slots_reused(),
             misses_in_view: self.tracker().misses(),
             ..self.counters
         }
+    }
+
+    /// The estimate's last wall bounces and inferred kicks, oldest first, with when each
+    /// happened.
+    pub fn motion_events(&self) -> impl Iterator<Item = (Stamp, MotionEventKind)> + '_ {
+        self.tracker()
+            .motion_events()
+            .map(|e| (self.stamp_of(e.t_s), e.kind))
     }
 
     /// The tracker after every observation received so far.
@@ -514,6 +530,8 @@ impl Fusion {
                 restitution_samples,
                 tangential_retention: motion.tangential_retention,
                 slide_decel_mps2: motion.slide_decel_mps2,
+                bounces_seen: saturate(self.tracker().bounces_seen()),
+                kicks_inferred: saturate(self.tracker().kicks_inferred()),
             },
             prediction: self.prediction_of(&f, self.cfg.horizon_s),
         })
@@ -567,3 +585,5 @@ impl Fusion {
 mod acquisition_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod wall_tests;

@@ -21,3 +21,4 @@ pub mod views;
 
 pub use fusion::{Fusion, FusionConfig, FusionCounters, Ingest, ViewReport};
 pub use motion::{Bounds, MotionModel};
+pub use tracker::{MotionEvent, MotionEventKind};

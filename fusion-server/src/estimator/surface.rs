@@ -14,6 +14,11 @@
 //!   acceleration against the velocity is the rolling deceleration;
 //! - a **slide**: the same over the first moments after a kick, while the ball still slides.
 //!
+//! The bounce's crossing also says where that wall stands: where the ball's centre turns,
+//! a few centimetres inside or outside where the configured pitch puts it (a table measured
+//! roughly, a ball of another size, a camera's distortion near the edge). Each wall's offset
+//! is learned like the four numbers, and the flights turn there.
+//!
 //! The walls' two numbers and the slide are used as they are learned, by every hypothesis.
 //! The rolling deceleration is also learned stretch by stretch by the estimate's own filter
 //! (which follows a floor whose friction changes with speed); this one, the floor's over all
@@ -55,6 +60,11 @@ pub struct SurfaceConfig {
     pub bounce_max_shift_s: f64,
     /// ... within this distance of the wall, and this far from any other wall.
     pub bounce_max_offset_m: f64,
+    /// Uncertainty of where the walls stand (the pitch's size as configured): where the
+    /// ball's centre turns at each wall is learned from the bounces, within
+    /// ±`wall_max_offset_m` of it.
+    pub wall_sigma_m: f64,
+    pub wall_max_offset_m: f64,
     /// After a bounce the ball may slide for a moment: rolls are fitted from this long
     /// after it, plus `settle_per_mps_s` per m/s of speed.
     pub settle_after_bounce_s: f64,
@@ -100,6 +110,8 @@ impl Default for SurfaceConfig {
             bounce_min_speed_mps: 0.15,
             bounce_max_shift_s: 0.08,
             bounce_max_offset_m: 0.12,
+            wall_sigma_m: 0.03,
+            wall_max_offset_m: 0.12,
             settle_after_bounce_s: 0.05,
             settle_per_mps_s: 0.02,
             settle_after_kick_s: 0.15,
@@ -263,6 +275,8 @@ struct Fit {
     p: [f64; 2],
     v: [f64; 2],
     a: [f64; 2],
+    /// Variance of `p`.
+    var_p: [f64; 2],
     var_v: [f64; 2],
     var_a: [f64; 2],
     /// The residuals' χ² per degree of freedom (1 when they scatter as stated).
@@ -348,6 +362,7 @@ impl Moments {
             fit.p[axis] += beta[0];
             fit.v[axis] = beta[1];
             fit.a[axis] = beta[2];
+            fit.var_p[axis] = inv[(0, 0)];
             fit.var_v[axis] = inv[(1, 1)];
             fit.var_a[axis] = inv[(2, 2)];
         }
@@ -373,6 +388,7 @@ impl Moments {
             fit.p[axis] += beta[0];
             fit.v[axis] = beta[1];
             fit.a[axis] = acc;
+            fit.var_p[axis] = inv[(0, 0)];
             fit.var_v[axis] = inv[(1, 1)];
         }
         Some(fit.scaled(chi2, 2.0 * (f64::from(self.n) - 2.0)))
@@ -399,6 +415,7 @@ impl Fit {
             p: z0,
             v: [0.0; 2],
             a: [0.0; 2],
+            var_p: [0.0; 2],
             var_v: [0.0; 2],
             var_a: [0.0; 2],
             chi2_dof: 1.0,
@@ -411,6 +428,7 @@ impl Fit {
         self.chi2_dof = if dof > 0.0 { chi2 / dof } else { 1.0 };
         let k = self.chi2_dof.max(1.0);
         for axis in 0..2 {
+            self.var_p[axis] *= k;
             self.var_v[axis] *= k;
             self.var_a[axis] *= k;
         }
@@ -438,6 +456,11 @@ struct PendingBounce {
     /// Sign of the normal velocity going in.
     inward: f64,
     before: Fit,
+    /// The wall's learned offset when the bounce was taken (`wall_m` includes it).
+    offset_m: f64,
+    /// The after-side starts here (later than `t_s` when the bounce was found in the
+    /// sightings after the flight had foreseen it too early).
+    after_from_s: f64,
 }
 
 /// A wall hit as the tracker's flight met it.
@@ -477,6 +500,9 @@ pub struct Surface {
     slide: Estimate,
     restitution: Estimate,
     tangential: Estimate,
+    /// How far each wall (in the order of `WallSide::ALL`) stands outside where the pitch
+    /// puts it (negative: inside).
+    walls: [Estimate; 4],
     /// Sightings not yet committed to the fits (younger than `commit_delay_s`), and the
     /// last `bounce_window_s` of committed ones: the bounce fits' raw material.
     recent: VecDeque<Seen>,
@@ -497,8 +523,17 @@ pub struct Surface {
     refused: u32,
     /// Bumped whenever a learned value changes...
     version: u64,
-    /// ... and whenever the restitution does.
+    /// ... and whenever the restitution or a wall's place does.
     walls_version: u64,
+}
+
+/// The smallest spread one bounce's crossing is taken to have.
+const WALL_SAMPLE_FLOOR_M: f64 = 0.01;
+
+/// The side of `WallSide::ALL` a ball moving with normal velocity sign `inward` along
+/// `axis` meets.
+fn side_of(axis: usize, inward: f64) -> usize {
+    2 * axis + usize::from(inward < 0.0)
 }
 
 /// At most this many sightings wait for the fits (a flood commits them early), and at most
@@ -540,6 +575,17 @@ impl Surface {
                 cfg.tangential_sigma,
                 ratio(cfg.ratio_sample_floor),
             ),
+            walls: [(); 4].map(|_| {
+                Estimate::new(
+                    0.0,
+                    cfg.wall_sigma_m,
+                    Limits {
+                        sample: (-cfg.wall_max_offset_m, cfg.wall_max_offset_m),
+                        mean: (-cfg.wall_max_offset_m, cfg.wall_max_offset_m),
+                        sample_floor: WALL_SAMPLE_FLOOR_M,
+                    },
+                )
+            }),
             cfg,
             recent: VecDeque::new(),
             from_s: f64::NEG_INFINITY,
@@ -584,6 +630,17 @@ impl Surface {
         self.tangential.learned()
     }
 
+    /// Where the ball's centre turns at each wall (in the order of `WallSide::ALL`),
+    /// outside (positive) or inside the pitch's configured bounds.
+    pub fn wall_offsets_m(&self) -> [f64; 4] {
+        self.walls.map(|w| w.mean())
+    }
+
+    /// Bounces that measured where a wall stands, per side.
+    pub fn wall_samples(&self) -> [u32; 4] {
+        self.walls.map(|w| w.samples)
+    }
+
     pub fn counts(&self) -> SurfaceCounts {
         SurfaceCounts {
             rolls: self.rolling.samples,
@@ -604,7 +661,7 @@ impl Surface {
         self.version
     }
 
-    /// Changes whenever the learned restitution does.
+    /// Changes whenever the learned restitution or a wall's place does.
     pub fn walls_version(&self) -> u64 {
         self.walls_version
     }
@@ -674,6 +731,8 @@ impl Surface {
                 wall_m: e.wall_m,
                 inward: e.normal_velocity_in_mps.signum(),
                 before,
+                offset_m: self.walls[side_of(e.axis, e.normal_velocity_in_mps)].mean(),
+                after_from_s: e.t_s + self.cfg.guard_s,
             }),
             _ => {
                 self.refused = self.refused.saturating_add(1);
@@ -685,6 +744,29 @@ impl Surface {
         let speed_out = speed_in * self.restitution.mean();
         self.roll_from_s =
             e.t_s + self.cfg.settle_after_bounce_s + self.cfg.settle_per_mps_s * speed_out;
+    }
+
+    /// The main track's sightings showed a bounce its flight did not foresee: at a wall the
+    /// flight put elsewhere (or one it met earlier than the ball did), or with another share
+    /// of the speed than learned. When the flight met the same wall moments ago, that bounce
+    /// is this one: its after-side starts after this one.
+    pub fn bounce_found(&mut self, e: BounceEvent) {
+        let window = self.cfg.bounce_window_s;
+        if let Some(p) = self.pending.as_mut()
+            && p.axis == e.axis
+            && (p.wall_m - e.wall_m).abs() < 1e-6
+            && (e.t_s - p.t_s).abs() < window
+        {
+            p.after_from_s = p.after_from_s.max(e.t_s + self.cfg.guard_s);
+            return;
+        }
+        if self.last_bounce.is_some_and(|(t, axis, wall)| {
+            axis == e.axis && (wall - e.wall_m).abs() < 1e-6 && (e.t_s - t).abs() < window
+        }) {
+            // Taken already, and measured or refused since (or not learned at all).
+            self.last_bounce = None;
+        }
+        self.bounce(e);
     }
 
     /// The main track was kicked at `t_s` (found now, perhaps some sightings later) and
@@ -870,17 +952,23 @@ impl Surface {
             b.t_s,
             self.recent
                 .iter()
-                .filter(|s| s.t_s >= b.t_s + c.guard_s && s.t_s <= until_s),
+                .filter(|s| s.t_s >= b.after_from_s && s.t_s <= until_s),
         )
         .filter(|m| m.n >= 3 && m.span_s() >= 0.02)
         .and_then(|m| m.decelerating_line(self.rolling.mean()));
         let sample = after.and_then(|after| bounce_sample(&b, &after, &c));
-        let Some((normal, tangential)) = sample else {
+        let Some(((normal, tangential), (at_m, var_at))) = sample else {
             self.refused = self.refused.saturating_add(1);
             return;
         };
         if !self.learn_walls {
             return;
+        }
+        let side = side_of(b.axis, b.inward);
+        let offset = b.offset_m + (at_m - b.wall_m) * b.inward;
+        if self.walls[side].add(offset, var_at, &c) {
+            self.version += 1;
+            self.walls_version += 1;
         }
         if self.restitution.add(normal.0, normal.1, &c) {
             self.version += 1;
@@ -952,7 +1040,7 @@ fn bounce_sample(
     b: &PendingBounce,
     after: &Fit,
     c: &SurfaceConfig,
-) -> Option<((f64, f64), Option<(f64, f64)>)> {
+) -> Option<(((f64, f64), Option<(f64, f64)>), (f64, f64))> {
     let (k, j) = (b.axis, 1 - b.axis);
     let before = &b.before;
     // Where the two normal tracks cross, near the predicted bounce (τ = 0).
@@ -984,7 +1072,9 @@ fn bounce_sample(
         let var = (after.var_v[j] + r * r * before.var_v[j]) / (v_in[j] * v_in[j]);
         (r, var)
     });
-    Some(((e, var_e), tangential))
+    // Where the centre turned, and how well the two fits place it.
+    let var_at = before.var_p[k] + after.var_p[k];
+    Some((((e, var_e), tangential), (at[k], var_at)))
 }
 
 #[cfg(test)]

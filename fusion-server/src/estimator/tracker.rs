@@ -18,11 +18,15 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 
 mod acquire;
+mod at_wall;
 mod config;
+mod events;
 mod onset;
 mod trust;
 pub use acquire::{CameraClocks, Hit};
 pub use config::TrackerConfig;
+use events::MotionLog;
+pub use events::{MotionEvent, MotionEventKind};
 use onset::{Kick, OnsetSighting, Recent};
 pub use trust::RobotTrust;
 
@@ -114,6 +118,9 @@ impl Track {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tracker {
     cfg: Arc<TrackerConfig>,
+    /// The walls where the pitch puts them...
+    pitch_bounds: Bounds,
+    /// ... and where the ball turns, as learned ([`Surface::wall_offsets_m`]).
     bounds: Bounds,
     tracks: Vec<Track>,
     main: Option<usize>,
@@ -129,8 +136,8 @@ pub struct Tracker {
     outside_walls: u64,
     /// Hypotheses restarted through two sightings (two-point initiation).
     pairs: u64,
-    /// Kicks inferred from surprising updates.
-    kicks_inferred: u64,
+    /// The estimate's bounces and inferred kicks.
+    motion_log: MotionLog,
     /// Observations whose innovation covariance could not be factored: not applied.
     singular_updates: u64,
     /// Observations that went to hypotheses other than the estimate (waiting for promotion,
@@ -174,6 +181,7 @@ impl Tracker {
         );
         Tracker {
             cfg,
+            pitch_bounds: bounds,
             bounds,
             tracks: Vec::new(),
             main: None,
@@ -182,7 +190,7 @@ impl Tracker {
             surface,
             surface_synced: 0,
             decel_updates: 0,
-            kicks_inferred: 0,
+            motion_log: MotionLog::default(),
             singular_updates: 0,
             held: 0,
             robot_slots_reused: 0,
@@ -197,6 +205,8 @@ impl Tracker {
         &self.cfg
     }
 
+    /// Where the ball's centre turns at the walls: the pitch's bounds, each wall moved by
+    /// what the bounces taught.
     pub fn bounds(&self) -> &Bounds {
         &self.bounds
     }
@@ -247,9 +257,20 @@ impl Tracker {
         self.pairs
     }
 
-    /// Kicks inferred from runs of surprising updates.
+    /// Kicks of the estimate inferred from runs of surprising updates.
     pub fn kicks_inferred(&self) -> u64 {
-        self.kicks_inferred
+        self.motion_log.kicks()
+    }
+
+    /// Wall bounces the estimate went through: foreseen by its flight, or found at a wall
+    /// in a run of surprising sightings ([`at_wall`]).
+    pub fn bounces_seen(&self) -> u64 {
+        self.motion_log.bounces()
+    }
+
+    /// The estimate's last bounces and inferred kicks, oldest first.
+    pub fn motion_events(&self) -> impl Iterator<Item = &MotionEvent> {
+        self.motion_log.events()
     }
 
     /// Observations not applied because their innovation covariance was not positive
@@ -296,12 +317,22 @@ impl Tracker {
         }
     }
 
-    /// Sets every hypothesis' restitution state to the learned value when it changed.
+    /// Sets every hypothesis' restitution state to the learned value and moves the walls to
+    /// where the ball turns, when either changed.
     fn sync_surface(&mut self) {
         if self.surface.walls_version() == self.surface_synced {
             return;
         }
         self.surface_synced = self.surface.walls_version();
+        let off = self.surface.wall_offsets_m();
+        let b = &self.pitch_bounds;
+        self.bounds = Bounds {
+            x_max: b.x_max + off[0],
+            x_min: b.x_min - off[1],
+            y_max: b.y_max + off[2],
+            y_min: b.y_min - off[3],
+            walls: b.walls,
+        };
         let prior = self.learned_prior();
         for tr in &mut self.tracks {
             tr.filter
@@ -433,13 +464,13 @@ impl Tracker {
         };
         match (kicked, best) {
             (Some((m, kick)), _) => {
-                self.kicked(m, kick, o.t_s);
+                self.kicked(m, kick, &sighting);
                 self.remember(m, &sighting);
                 self.update_track(m, ri, o, &r_eff);
             }
             (None, Some((i, d2))) => {
                 if let Some(kick) = self.note_onset(i, d2, &sighting) {
-                    self.kicked(i, kick, o.t_s);
+                    self.kicked(i, kick, &sighting);
                 }
                 self.remember(i, &sighting);
                 self.update_track(i, ri, o, &r_eff);
@@ -617,20 +648,38 @@ impl Tracker {
             }
         }
         for b in bounces {
+            self.motion_log.bounce(b.t_s, b.axis, b.wall_m);
             self.surface.bounce(b);
         }
     }
 
-    /// Track `i` was kicked (found at `t_s`): its filter is the re-initialised one.
-    fn kicked(&mut self, i: usize, kick: Kick, t_s: f64) {
+    /// Track `i` changed course (found at `t_s`): its filter is the re-initialised one. At a
+    /// wall, in the way a bounce changes it, it is a bounce its flight did not foresee;
+    /// elsewhere, a kick.
+    fn kicked(&mut self, i: usize, kick: Kick, now: &OnsetSighting) {
+        let t_s = now.t_s;
+        let bounces = kick.bounces;
+        let is_main = self.main == Some(i);
         let cfg = &self.cfg;
         let track = &mut self.tracks[i];
         track.filter = kick.filter;
         track.recent.clear();
-        track.boost_until_s = track.boost_until_s.max(t_s + cfg.kick_boost_s);
         track.quiet_until_s = track.quiet_until_s.max(t_s + cfg.learn_quiet_s);
-        if self.main == Some(i) {
-            self.surface.kick(kick.t_s, kick.speed_mps);
+        if bounces.is_empty() {
+            track.boost_until_s = track.boost_until_s.max(t_s + cfg.kick_boost_s);
+            if is_main {
+                self.motion_log.kick(kick.t_s);
+                self.surface.kick(kick.t_s, kick.speed_mps);
+            }
+            return;
+        }
+        // A wall does not start a slide.
+        track.filter.roll();
+        if is_main {
+            for b in bounces {
+                self.motion_log.bounce(b.t_s, b.axis, b.wall_m);
+                self.surface.bounce_found(b);
+            }
         }
     }
 

@@ -106,6 +106,10 @@ pub struct ReplayReport {
     pub fusion: FusionCounters,
     /// What the filter had learned by the last message.
     pub model: Option<ModelParams>,
+    /// Where the ball turns at each wall (in the order of `WallSide::ALL`), outside
+    /// (positive) or inside where the pitch puts it, and the bounces that measured it.
+    pub wall_offsets_m: [f64; 4],
+    pub wall_bounces: [u32; 4],
     /// Messages with topics or schemas replay does not know (copied through).
     pub other: u64,
     /// Match time covered, from the first to the last message.
@@ -307,6 +311,9 @@ pub fn replay(
     report.model = last
         .and_then(|m| engine.ball_state(m.log_time))
         .map(|s| s.model);
+    let surface = engine.fusion().tracker().surface();
+    report.wall_offsets_m = surface.wall_offsets_m();
+    report.wall_bounces = surface.wall_samples();
     Ok(report)
 }
 

@@ -104,6 +104,8 @@ mod tests {
                 restitution_samples: 0,
                 tangential_retention: 0.85,
                 slide_decel_mps2: 3.0,
+                bounces_seen: 0,
+                kicks_inferred: 0,
             },
             prediction: proto::Prediction {
                 version: proto::VERSION,

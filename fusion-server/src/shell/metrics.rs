@@ -253,7 +253,7 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 36] = [
+    let simple: [(&str, &str, &str, u64); 37] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -311,8 +311,14 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
         (
             "rf_kicks_inferred_total",
             "counter",
-            "Kicks inferred from runs of surprising sightings.",
+            "Kicks of the ball estimate inferred from runs of surprising sightings.",
             core.kicks_inferred,
+        ),
+        (
+            "rf_bounces_seen_total",
+            "counter",
+            "Wall bounces the ball estimate went through: foreseen by its flight, or found at a wall where surprising sightings would otherwise have been a kick.",
+            core.bounces_seen,
         ),
         (
             "rf_misses_in_view_total",

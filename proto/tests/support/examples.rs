@@ -197,6 +197,8 @@ pub fn ball_state() -> BallState {
             wall_restitution: 0.55,
             tangential_retention: 0.9,
             slide_decel_mps2: 2.8,
+            bounces_seen: 9,
+            kicks_inferred: 2,
             decel_samples: 12,
             restitution_samples: 4,
         },

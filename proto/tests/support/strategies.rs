@@ -172,6 +172,8 @@ prop_compose! {
             restitution_samples,
             tangential_retention: 0.85,
             slide_decel_mps2: 3.0,
+            bounces_seen: 0,
+            kicks_inferred: 0,
         }
     }
 }

@@ -57,6 +57,9 @@ pub struct TrackerConfig {
     pub surprises_for_kick: usize,
     /// Two surprising updates whose d² sum to this are already a clear kick.
     pub onset_chi2: f64,
+    /// A change of course at a wall, in the way a bounce changes it, is a bounce the flight
+    /// did not foresee rather than a kick ([`super::at_wall`]).
+    pub bounces_at_walls: bool,
     /// Learn the floor's decelerations / the walls' restitution and tangential retention
     /// from the estimate's stretches and bounces ([`SurfaceConfig`]); off, the base model's
     /// values are used as they are.
@@ -106,6 +109,7 @@ impl Default for TrackerConfig {
             surprise_chi2: 5.99,
             surprises_for_kick: 3,
             onset_chi2: 24.0,
+            bounces_at_walls: true,
             learn_decel: true,
             learn_restitution: true,
             surface: SurfaceConfig::default(),

@@ -16,9 +16,11 @@
 //! A sighting that no track accepts but lies near the main track is kept too: a kick whose
 //! second sighting is already beyond the gate is still the same ball.
 
+use super::at_wall::WallVerdict;
 use super::{Track, Tracker};
 use crate::estimator::filter::{BallFilter, Learn, ProcessNoise};
 use crate::estimator::motion::speed;
+use crate::estimator::surface::BounceEvent;
 use nalgebra::{Matrix2, Vector2};
 
 /// Sightings a track keeps for change-point search...
@@ -49,12 +51,14 @@ pub(super) struct Recent {
     pub robot: usize,
 }
 
-/// A kick found as a change point: the re-initialised filter, when it came and how fast.
+/// A kick found as a change point: the re-initialised filter, when it came and how fast;
+/// and the bounces it is instead when it came at a wall as a bounce does ([`super::at_wall`]).
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Kick {
     pub filter: BallFilter,
     pub t_s: f64,
     pub speed_mps: f64,
+    pub bounces: Vec<BounceEvent>,
 }
 
 /// A sighting as the onset logic needs it.
@@ -206,11 +210,25 @@ impl Tracker {
                     filter,
                     t_s,
                     speed_mps,
+                    bounces: Vec::new(),
                 };
                 (kick, d2_now, kept + cost + d2_now)
             })
             .min_by(|a, b| a.2.total_cmp(&b.2))
             .map(|(k, d2_now, _)| (k, d2_now))
+    }
+
+    /// `kick` as the walls judge it: a kick, bounces, or nothing yet (the ball still comes
+    /// in towards a wall it may be about to bounce off).
+    fn judged(&self, track: &Track, mut kick: Kick, now: &OnsetSighting) -> Option<Kick> {
+        match self.judge_at_walls(track, &kick, now) {
+            WallVerdict::Kick => Some(kick),
+            WallVerdict::Bounce(b) => {
+                kick.bounces = b;
+                Some(kick)
+            }
+            WallVerdict::Wait => None,
+        }
     }
 
     /// Keeps a sighting of track `i`, before its filter is updated by it.
@@ -240,9 +258,8 @@ impl Tracker {
     pub(super) fn note_onset(&mut self, i: usize, d2: f64, s: &OnsetSighting) -> Option<Kick> {
         let track = &self.tracks[i];
         let start = self.onset_run(track, s, d2)?;
-        let (f, _) = self.kicked_filter(track, start, s)?;
-        self.kicks_inferred += 1;
-        Some(f)
+        let (kick, _) = self.kicked_filter(track, start, s)?;
+        self.judged(track, kick, s)
     }
 
     /// For a sighting no track accepts: the main track re-initialised as kicked, when a
@@ -259,12 +276,10 @@ impl Tracker {
         let kicked = self
             .onset_run(track, s, inn.d2)
             .and_then(|start| self.kicked_filter(track, start, s))
-            .filter(|(_, d2)| *d2 < self.cfg.gate_chi2);
+            .filter(|(_, d2)| *d2 < self.cfg.gate_chi2)
+            .and_then(|(kick, _)| self.judged(track, kick, s));
         match kicked {
-            Some((f, _)) => {
-                self.kicks_inferred += 1;
-                Some((m, f))
-            }
+            Some(kick) => Some((m, kick)),
             None => {
                 self.remember(m, s);
                 None

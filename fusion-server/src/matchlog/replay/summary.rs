@@ -2,6 +2,7 @@
 //! the engine and the fusion core kept.
 
 use super::ReplayReport;
+use proto::WallSide;
 
 /// Files a replay wrote.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -30,6 +31,7 @@ pub fn summary_json(r: &ReplayReport, wall_s: f64, out: &ReplayOutputs) -> serde
         "observations_outside_walls": r.fusion.outside_walls,
         "observations_held": r.fusion.held_in_hypotheses,
         "kicks_inferred": r.fusion.kicks_inferred,
+        "bounces_seen": r.fusion.bounces_seen,
         "states_recorded": r.states_recorded,
         "states_identical": r.states_identical,
         "states_written": r.states_written,
@@ -45,6 +47,7 @@ pub fn summary_json(r: &ReplayReport, wall_s: f64, out: &ReplayOutputs) -> serde
             "tangential_retention": m.tangential_retention,
             "slide_decel_mps2": m.slide_decel_mps2,
         })),
+        "walls": walls_json(r),
         "span_s": r.span_s,
         "wall_s": wall_s,
         "log_files": out.log_files,
@@ -82,9 +85,13 @@ pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
             r.fusion.held_in_hypotheses
         ));
     }
-    if r.fusion.kicks_inferred > 0 {
+    if r.fusion.bounces_seen > 0 || r.fusion.kicks_inferred > 0 {
         line(format!(
-            "kicks inferred      {} (runs of surprising sightings)",
+            "wall bounces        {} (the estimate went through)",
+            r.fusion.bounces_seen
+        ));
+        line(format!(
+            "kicks inferred      {} (runs of surprising sightings away from the walls)",
             r.fusion.kicks_inferred
         ));
     }
@@ -115,6 +122,24 @@ pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
             r.scene_written, r.scene_replaced
         ));
     }
+    if r.wall_bounces.iter().any(|n| *n > 0) {
+        let walls: Vec<String> = WallSide::ALL
+            .iter()
+            .enumerate()
+            .map(|(i, side)| {
+                format!(
+                    "{} {:+.3} m ({})",
+                    side_name(*side),
+                    r.wall_offsets_m[i],
+                    r.wall_bounces[i]
+                )
+            })
+            .collect();
+        line(format!(
+            "walls at the end    {} (outside + / inside −, bounces)",
+            walls.join(", ")
+        ));
+    }
     if let Some(m) = &r.model {
         line(format!(
             "model at the end    deceleration {:.3} m/s² ({} samples), restitution {:.2} and \
@@ -134,4 +159,32 @@ pub fn summary_text(r: &ReplayReport, wall_s: f64) -> String {
     ));
     lines.push(String::new());
     lines.join("\n")
+}
+
+fn side_name(side: WallSide) -> &'static str {
+    match side {
+        WallSide::XMax => "x_max",
+        WallSide::XMin => "x_min",
+        WallSide::YMax => "y_max",
+        WallSide::YMin => "y_min",
+    }
+}
+
+/// Per wall: how far outside (+) or inside (−) the pitch's bounds the ball turns, and the
+/// bounces that measured it.
+fn walls_json(r: &ReplayReport) -> serde_json::Value {
+    WallSide::ALL
+        .iter()
+        .enumerate()
+        .map(|(i, side)| {
+            (
+                side_name(*side).to_string(),
+                serde_json::json!({
+                    "offset_m": r.wall_offsets_m[i],
+                    "bounces": r.wall_bounces[i],
+                }),
+            )
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
 }

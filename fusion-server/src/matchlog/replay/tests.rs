@@ -170,6 +170,8 @@ fn observations_beyond_a_wall_are_counted_and_shown() {
         "observations_replayed",
         "observations_held",
         "kicks_inferred",
+        "bounces_seen",
+        "walls",
         "states_without_estimate",
         "model",
     ] {
