@@ -9,12 +9,15 @@
 //! → the same run, bit for bit; there are no clock reads, time is simulated.
 //!
 //! `run_scenario` produces a whole `SimRun`; `World` steps the same world incrementally for
-//! a live caller. [`render_robot_cameras`] draws what a MiRo's cameras see through the
-//! sim's own fisheye [`LensModel`] (placed by the [`default_head`] chain), with per-frame
-//! ball ground truth; [`calibration_views`] renders chessboard views with their true
-//! corners; [`synth_photo`] makes randomised labelled photos of a ball through a cheap
-//! camera. [`score()`] scores a method's estimates against a run's ground truth;
-//! [`TruthLogBuilder`] carries a run's ground truth through a match log and rebuilds the run.
+//! a live caller. [`camera_footprints`] gives the floor each observing camera reports the
+//! ball from (field of view, the detector's range, bodies in the way) through the instants
+//! a simulated robot's status speaks for. [`render_robot_cameras`] draws what a MiRo's
+//! cameras see through the sim's own fisheye [`LensModel`] (placed by the [`default_head`]
+//! chain), with per-frame ball ground truth; [`calibration_views`] renders chessboard views
+//! with their true corners; [`synth_photo`] makes randomised labelled photos of a ball
+//! through a cheap camera. [`score()`] scores a method's estimates against a run's ground
+//! truth; [`TruthLogBuilder`] carries a run's ground truth through a match log and rebuilds
+//! the run.
 //! This crate never depends on `fusion-server`.
 //!
 //! This root is the crate's front door: the modules behind it are private.
@@ -34,6 +37,7 @@
 mod camera_effects;
 mod camera_world;
 mod chessboard;
+mod footprint;
 mod head;
 mod kicks;
 mod latency;
@@ -69,6 +73,7 @@ mod truth_log_tests;
 
 pub use camera_world::{CameraWorld, CameraWorldConfig, patterned_ball};
 pub use chessboard::{Chessboard, calibration_views, render_chessboard};
+pub use footprint::{Moment, camera_footprints};
 pub use head::default_head;
 pub use latency::LatencyProfile;
 pub use lens::LensModel;
@@ -96,8 +101,9 @@ pub mod model {
     pub use crate::noise::{
         CAMERA_HEIGHT_M, CAMERA_YAW_RAD, HALF_FOV_RAD, MAX_RANGE_M, MIN_RANGE_M,
         POSE_SIGMA_THETA_RAD, POSE_SIGMA_XY_M, POSE_TAU_S, SIGMA_AZIM_RAD, SIGMA_ELEV_RAD,
+        detection_probability_at,
     };
-    pub use crate::observer::{FRAME_RATE_HZ, PHANTOM_P};
+    pub use crate::observer::{DROPOUT_P, FRAME_RATE_HZ, PHANTOM_P};
     pub use crate::physics::{BOUNCE_RESLIDE_RATIO, ROBOT_RESTITUTION, SLIDE_TO_ROLL_RATIO};
     pub use crate::robots::{MAX_SPEED_MPS, ROBOT_RADIUS_M};
 }

@@ -87,6 +87,17 @@ pub fn detection_probability(d: f64) -> f64 {
     }
 }
 
+/// Probability that `camera` of a robot at `pose` finds a ball at floor point `p` in one
+/// image: the detector's at the ball's range when it is in the field of view, else zero
+/// (before occlusion and dropouts).
+pub fn detection_probability_at(pose: &Pose2, camera: Camera, p: V2) -> f64 {
+    cameras(pose)
+        .iter()
+        .find(|v| v.camera == camera)
+        .and_then(|v| v.sees(p))
+        .map_or(0.0, detection_probability)
+}
+
 /// Along-ray and across-ray standard deviations of the view-ray angle error at distance `d`.
 pub fn ray_sigmas(d: f64, h: f64) -> (f64, f64) {
     let r2 = d * d + h * h;

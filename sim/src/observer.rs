@@ -113,6 +113,8 @@ pub struct Observer {
     pub phantom_spot: Option<V2>,
     /// Capture instants so far.
     pub frames: u64,
+    /// Its perception stalls so far (burst dropouts): from and to, seconds.
+    pub stalls: Vec<[f64; 2]>,
     /// Captures per second.
     pub frame_rate_hz: f64,
     rng: Rng,
@@ -148,6 +150,7 @@ impl Observer {
             cov_scale,
             phantom_spot: None,
             frames: 0,
+            stalls: Vec::new(),
             frame_rate_hz: FRAME_RATE_HZ,
             rng,
             latency_rng,
@@ -184,6 +187,7 @@ impl Observer {
         while t >= self.next_burst_s {
             self.burst_until_s =
                 self.next_burst_s + self.rng.range(BURST_RANGE_S.0, BURST_RANGE_S.1);
+            self.stalls.push([self.next_burst_s, self.burst_until_s]);
             self.next_burst_s = self.burst_until_s + self.rng.exponential(BURST_MEAN_INTERVAL_S);
         }
         if t < self.burst_until_s {

@@ -62,6 +62,10 @@ pub struct RobotInfo {
     pub clock_offset_s: f64,
     /// Capture instants this robot had, whether or not it saw anything.
     pub frames: u64,
+    /// When its perception stalled: from and to, seconds. Absent in logs from before they
+    /// were kept.
+    #[serde(default)]
+    pub stalls: Vec<[f64; 2]>,
 }
 
 /// The phantom ball of a run: the robot that reported it and where it was.
@@ -195,6 +199,7 @@ impl RunInfo {
                     cov_scale: r.cov_scale,
                     clock_offset_s: r.clock_offset_s,
                     frames: r.frames,
+                    stalls: r.stalls.clone(),
                 })
                 .collect(),
         }
@@ -339,6 +344,7 @@ impl TruthLogBuilder {
                 cov_scale: r.cov_scale,
                 clock_offset_s: r.clock_offset_s,
                 frames: r.frames,
+                stalls: r.stalls,
             })
             .collect();
         let index: HashMap<String, usize> = robots

@@ -108,9 +108,19 @@ pub struct RobotTrack {
     pub clock_offset_s: f64,
     /// Capture instants (both cameras at once) this robot had, whether or not it saw anything.
     pub frames: u64,
+    /// When its perception stalled (every image lost, a burst dropout): from and to,
+    /// seconds. Absent in records from before they were kept.
+    #[serde(default)]
+    pub stalls: Vec<[f64; 2]>,
 }
 
 impl RobotTrack {
+    /// Whether its perception stalled at any time in (`from_s`, `to_s`] (a stall holds
+    /// from its start up to its end).
+    pub fn stalled_within(&self, from_s: f64, to_s: f64) -> bool {
+        self.stalls.iter().any(|[a, b]| *a <= to_s && *b > from_s)
+    }
+
     /// The true pose at `t_s`, linearly interpolated (heading along the shorter arc), clamped
     /// to the recorded span.
     pub fn pose_at(&self, t_s: f64) -> Pose2 {
@@ -185,11 +195,14 @@ mod tests {
             cov_scale: 1.0,
             clock_offset_s: 0.0,
             frames: 0,
+            stalls: vec![[0.2, 0.6]],
         };
         let p = track.pose_at(0.5);
         assert!((p.x_m - 0.5).abs() < 1e-12 && (p.y_m - 1.0).abs() < 1e-12);
         assert!(p.theta_rad.abs() > 3.1, "{}", p.theta_rad);
         assert_eq!(track.pose_at(-1.0).x_m, 0.0);
         assert_eq!(track.pose_at(5.0).y_m, 2.0);
+        assert!(track.stalled_within(0.5, 0.7) && track.stalled_within(0.0, 0.3));
+        assert!(!track.stalled_within(0.0, 0.15) && !track.stalled_within(0.6, 1.0));
     }
 }

@@ -442,6 +442,9 @@ impl World {
                     cov_scale: o.map_or(1.0, |o| o.cov_scale),
                     clock_offset_s: o.map_or(0.0, |o| o.clock_offset_s),
                     frames: o.map_or(0, |o| o.frames),
+                    stalls: o.map_or_else(Vec::new, |o| {
+                        o.stalls.iter().filter(|s| s[0] <= end).copied().collect()
+                    }),
                 }
             })
             .collect();

@@ -2,11 +2,18 @@
 //! session and liveliness token and publishes its observations when they would arrive,
 //! and its status at a few hertz, in real time. The demo runs them as tasks; tests run them
 //! as separate processes.
+//!
+//! A status carries each camera's floor footprint around the robot's pose of its time,
+//! from the simulator's own camera geometry ([`sim::camera_footprints`]): the floor where
+//! the modelled detector reports the ball (its field of view and range, less what other
+//! robots' bodies hide) at every frame from the previous status to the next. The server
+//! takes a ball that a footprint holds and the frames did not report as evidence that it is
+//! not there, so a footprint claims no more than the detector covers while it is in use.
 
 use anyhow::{Context, Result};
 use fusion_server::{Clock, SystemClock};
 use proto::net::NetConfig;
-use proto::{HeadJoints, KeySpace, Observation, Pitch, RobotStatus, Stamp};
+use proto::{HeadJoints, KeySpace, Observation, Pitch, Pose2, RobotStatus, Stamp};
 use sim::{RobotTrack, SimConfig, SimRun};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -27,6 +34,9 @@ pub struct SimRobotsConfig {
     /// After the match, play the next seed, and so on, until stopped.
     pub repeat: bool,
     pub status_rate_hz: f64,
+    /// Statuses carry each camera's floor footprint (off: the server gets no negative
+    /// information from these robots).
+    pub footprints: bool,
     pub prefix: String,
     pub net: NetConfig,
     /// A secured network's keys folder (`fusion-server keys`): robot `{id}` joins with
@@ -95,18 +105,108 @@ pub fn chosen_robots(run: &SimRun, wanted: &[String]) -> Result<Vec<String>> {
     Ok(wanted.to_vec())
 }
 
-fn status_of(track: &RobotTrack, t_s: f64, stamp: Stamp, fps: f64) -> RobotStatus {
-    RobotStatus {
-        version: proto::VERSION,
-        robot_id: track.id.clone(),
-        stamp,
-        pose: track.pose_at(t_s),
-        pose_covariance: [4e-4, 0.0, 0.0, 0.0, 4e-4, 0.0, 0.0, 0.0, 1e-3],
-        head: HeadJoints::default(),
-        fps,
-        timings: Vec::new(),
-        footprints: Vec::new(),
-        cameras: Vec::new(),
+/// The frames a second a robot's cameras captured in the run (the slow-robot scenarios'
+/// fewer than the model's rate).
+fn frame_rate_hz(run: &SimRun, track: &RobotTrack) -> f64 {
+    if run.duration_s > 0.0 && track.frames > 0 {
+        track.frames as f64 / run.duration_s
+    } else {
+        sim::model::FRAME_RATE_HZ
+    }
+}
+
+/// Instants a footprint is checked at, a second: twice the cameras' frame rate.
+const FOOTPRINT_SAMPLES_HZ: f64 = 2.0 * sim::model::FRAME_RATE_HZ;
+
+/// Each camera's footprint of `track`'s robot at match time `t_s`: the floor where its
+/// camera reports the ball at every instant within `window_s` either side (the frames a
+/// status speaks for since the previous one, and those it is used for until the next),
+/// among the other robots' bodies.
+fn footprints_of(
+    run: &SimRun,
+    track: &RobotTrack,
+    t_s: f64,
+    window_s: f64,
+) -> Vec<proto::CameraFootprint> {
+    let n = (window_s.max(0.0) * FOOTPRINT_SAMPLES_HZ).ceil() as usize;
+    // The status's own instant first: the polygon is drawn around its camera.
+    let times: Vec<f64> = std::iter::once(t_s)
+        .chain((1..=n).flat_map(|k| {
+            let dt_s = window_s * k as f64 / n as f64;
+            [t_s - dt_s, t_s + dt_s]
+        }))
+        .collect();
+    let others: Vec<Vec<Pose2>> = times
+        .iter()
+        .map(|t| {
+            run.robots
+                .iter()
+                .filter(|r| r.id != track.id)
+                .map(|r| r.pose_at(*t))
+                .collect()
+        })
+        .collect();
+    let moments: Vec<sim::Moment<'_>> = times
+        .iter()
+        .zip(&others)
+        .map(|(t, others)| sim::Moment {
+            pose: track.pose_at(*t),
+            others,
+        })
+        .collect();
+    sim::camera_footprints(&moments)
+}
+
+/// How the simulated robots report their status.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct StatusPlan {
+    /// Time between statuses.
+    interval_s: f64,
+    /// Statuses carry each camera's footprint.
+    footprints: bool,
+}
+
+impl StatusPlan {
+    fn new(status_rate_hz: f64, footprints: bool) -> Self {
+        StatusPlan {
+            interval_s: 1.0 / status_rate_hz.max(0.1),
+            footprints,
+        }
+    }
+
+    /// `track`'s status at match time `t_s`, stamped `stamp`: its true pose, its frame
+    /// rate and, with footprints, each camera's footprint over an interval either side
+    /// ([`footprints_of`]). None when its perception stalled since the previous status's
+    /// time: like an agent whose statuses follow its frames, a stalled robot says nothing,
+    /// and no status speaks for frames that were never processed. (No camera counters:
+    /// [`ModelledPerception`] adds them.)
+    fn status(
+        &self,
+        run: &SimRun,
+        track: &RobotTrack,
+        t_s: f64,
+        stamp: Stamp,
+    ) -> Option<RobotStatus> {
+        if track.stalled_within(t_s - self.interval_s, t_s) {
+            return None;
+        }
+        let footprints = if self.footprints {
+            footprints_of(run, track, t_s, self.interval_s)
+        } else {
+            Vec::new()
+        };
+        Some(RobotStatus {
+            version: proto::VERSION,
+            robot_id: track.id.clone(),
+            stamp,
+            pose: track.pose_at(t_s),
+            pose_covariance: [4e-4, 0.0, 0.0, 0.0, 4e-4, 0.0, 0.0, 0.0, 1e-3],
+            head: HeadJoints::default(),
+            fps: frame_rate_hz(run, track),
+            timings: Vec::new(),
+            footprints,
+            cameras: Vec::new(),
+        })
     }
 }
 
@@ -120,29 +220,40 @@ fn instant_of(at: Stamp, now_stamp: Stamp, now: Instant) -> Instant {
     }
 }
 
-/// One robot's share of a run: its observations by arrival and its track.
+/// One robot's share of a run: its observations by arrival, and the run (its own track
+/// and the other robots' bodies, for its statuses).
 #[derive(Debug)]
 struct RobotPlan {
     id: String,
     deliveries: Vec<(Stamp, Observation)>,
-    track: RobotTrack,
+    run: Arc<SimRun>,
+    statuses: StatusPlan,
 }
 
-fn plans(run: &SimRun, ids: &[String]) -> Vec<RobotPlan> {
+impl RobotPlan {
+    /// The status at match time `t_s`, stamped `stamp` (none while stalled).
+    fn status(&self, t_s: f64, stamp: Stamp) -> Option<RobotStatus> {
+        let track = self.run.robot(&self.id)?;
+        self.statuses.status(&self.run, track, t_s, stamp)
+    }
+}
+
+fn plans(run: &Arc<SimRun>, ids: &[String], statuses: StatusPlan) -> Vec<RobotPlan> {
     ids.iter()
-        .filter_map(|id| {
-            let track = run.robots.iter().find(|r| &r.id == id)?.clone();
+        .filter(|id| run.robot(id).is_some())
+        .map(|id| {
             let deliveries = run
                 .deliveries
                 .iter()
                 .filter(|d| &d.obs.robot_id == id)
                 .map(|d| (d.arrival, d.obs.clone()))
                 .collect();
-            Some(RobotPlan {
+            RobotPlan {
                 id: id.clone(),
                 deliveries,
-                track,
-            })
+                run: run.clone(),
+                statuses,
+            }
         })
         .collect()
 }
@@ -153,7 +264,6 @@ async fn play_robot(
     keys: &KeySpace,
     plan: RobotPlan,
     run_start: Stamp,
-    status_rate_hz: f64,
     stop: &mut watch::Receiver<bool>,
 ) -> Result<u64> {
     let obs_pub = session
@@ -166,12 +276,16 @@ async fn play_robot(
         .await
         .map_err(|e| anyhow::anyhow!("status publisher: {e}"))?;
     let clock = SystemClock;
-    let status_dt_s = 1.0 / status_rate_hz.max(0.1);
+    let status_dt_s = plan.statuses.interval_s;
     let end = plan.deliveries.last().map(|(a, _)| *a).unwrap_or(run_start);
     let mut next_status = run_start;
     let mut sent = 0;
     let mut perception = ModelledPerception::default();
-    let mut obs = plan.deliveries.into_iter().peekable();
+    let fps = plan
+        .run
+        .robot(&plan.id)
+        .map_or(sim::model::FRAME_RATE_HZ, |t| frame_rate_hz(&plan.run, t));
+    let mut obs = plan.deliveries.iter().peekable();
     loop {
         let next_obs = obs.peek().map(|(a, _)| *a);
         let (due, is_status) = match next_obs {
@@ -187,12 +301,13 @@ async fn play_robot(
         }
         if is_status {
             let t_s = due.secs_since(run_start);
-            let mut s = status_of(&plan.track, t_s, due, sim::model::FRAME_RATE_HZ);
-            s.cameras = perception.report(t_s, sim::model::FRAME_RATE_HZ);
-            let _ = status_pub.put(proto::encode(&s)).await;
+            if let Some(mut s) = plan.status(t_s, due) {
+                s.cameras = perception.report(t_s, fps);
+                let _ = status_pub.put(proto::encode(&s)).await;
+            }
             next_status = next_status.offset_secs(status_dt_s);
         } else if let Some((_, o)) = obs.next()
-            && obs_pub.put(proto::encode(&o)).await.is_ok()
+            && obs_pub.put(proto::encode(o)).await.is_ok()
         {
             perception.published(o.camera);
             sent += 1;
@@ -292,12 +407,10 @@ pub async fn run_on(
     let mut run = Arc::new(first);
     loop {
         let mut tasks = tokio::task::JoinSet::new();
-        for (plan, (session, _)) in plans(&run, &ids).into_iter().zip(&sessions) {
+        let statuses = StatusPlan::new(cfg.status_rate_hz, cfg.footprints);
+        for (plan, (session, _)) in plans(&run, &ids, statuses).into_iter().zip(&sessions) {
             let (session, keys, mut stop) = (session.clone(), keys.clone(), stop.clone());
-            let rate = cfg.status_rate_hz;
-            tasks.spawn(
-                async move { play_robot(&session, &keys, plan, start, rate, &mut stop).await },
-            );
+            tasks.spawn(async move { play_robot(&session, &keys, plan, start, &mut stop).await });
         }
         // Simulate the next match while this one plays.
         let next_start = start.offset_secs(run.duration_s);
@@ -334,33 +447,5 @@ pub async fn run_on(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn modelled_counters_follow_the_published_sightings() {
-        let mut p = ModelledPerception::default();
-        for _ in 0..3 {
-            p.published(proto::Camera::Left);
-        }
-        p.published(proto::Camera::Right);
-        let first = p.report(1.0, 15.0);
-        assert_eq!(
-            (first[0].frames, first[0].balls, first[1].balls),
-            (15, 3, 1)
-        );
-        assert!((first[0].balls_per_s - 3.0).abs() < 1e-9);
-        p.published(proto::Camera::Left);
-        let second = p.report(1.5, 15.0);
-        assert!(
-            (second[0].balls_per_s - 2.0).abs() < 1e-9,
-            "one ball in half a second"
-        );
-        assert_eq!(second[1].balls_per_s, 0.0);
-        assert!(
-            second
-                .iter()
-                .all(|c| c.rejections.is_empty() && c.frames == 22)
-        );
-    }
-}
+#[path = "sim_robots_tests.rs"]
+mod tests;

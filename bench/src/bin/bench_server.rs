@@ -620,6 +620,7 @@ async fn memory(robots: usize, seconds: f64) -> Result<Memory> {
         start: SystemClock.now().offset_secs(1.0),
         repeat: false,
         status_rate_hz: 5.0,
+        footprints: true,
         prefix: proto::DEFAULT_PREFIX.into(),
         net: NetConfig::connecting(&endpoint),
         keys: None,

@@ -185,6 +185,7 @@ async fn run(a: DemoArgs) -> Result<()> {
                 start,
                 repeat: true,
                 status_rate_hz: 5.0,
+                footprints: true,
                 prefix: cfg.prefix.clone(),
                 net: NetConfig::connecting(&endpoint),
                 keys: None,

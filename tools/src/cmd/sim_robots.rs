@@ -1,6 +1,7 @@
 //! `sim_robots`: simulated MiRos only. Each robot of a simulated match gets its own Zenoh
 //! session and liveliness token and publishes its modelled observations when they would
-//! arrive, and its status at 5 Hz, in real time, to a server (or a router) at `--connect`.
+//! arrive, and its status (with each camera's floor footprint) at 5 Hz, in real time, to a
+//! server (or a router) at `--connect`.
 
 use crate::sim_args::MatchArgs;
 use crate::sim_robots::{self, SimRobotsConfig};
@@ -32,6 +33,10 @@ struct Args {
     /// Play the next seed after each match, until stopped.
     #[arg(long)]
     repeat: bool,
+    /// Statuses without camera footprints: the server then takes no negative information
+    /// (what the cameras looked at and did not see) from these robots.
+    #[arg(long)]
+    no_footprints: bool,
     #[arg(long, default_value = proto::DEFAULT_PREFIX)]
     prefix: String,
     /// The simulated pitch (give the server the same).
@@ -59,6 +64,7 @@ async fn run(a: Args) -> Result<()> {
         team_size: a.sim.team_size,
         repeat: a.repeat,
         status_rate_hz: 5.0,
+        footprints: !a.no_footprints,
         prefix: a.prefix,
         net: NetConfig {
             mode: a.mode,
