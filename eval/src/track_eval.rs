@@ -59,6 +59,11 @@ impl TrackMethod {
         }
     }
 
+    /// Whether the method predicts where the ball stops (and so is scored on it).
+    pub fn predicts_stops(self) -> bool {
+        matches!(self, TrackMethod::Fusion | TrackMethod::FixedPhysics)
+    }
+
     /// Whether the method tells bounces and kicks (and so is scored on them).
     pub fn infers_events(self) -> bool {
         matches!(self, TrackMethod::Fusion | TrackMethod::FixedPhysics)
@@ -73,6 +78,9 @@ impl TrackMethod {
 /// A core's bounce or kick within this of a track's bounce is about it; a bounce with a
 /// push this close is not a clear one.
 pub const EVENT_MATCH_S: f64 = 0.2;
+
+/// A stop is scored from states at least this far from it.
+pub const STOP_MIN_TO_GO_M: f64 = 0.3;
 
 /// Two of the core's events of one kind this close are one, found again.
 const SAME_EVENT_S: f64 = 0.05;
@@ -336,6 +344,43 @@ pub struct TrackSamples {
     pub kicks_inferred: usize,
     pub kicks_unprompted: usize,
     pub bounces_seen: usize,
+    /// States of a moving ball whose next stop is at least [`STOP_MIN_TO_GO_M`] away with
+    /// nothing changing its course before: how far the predicted stop is from it, and that
+    /// over the distance still to go.
+    pub stop_err_m: Vec<f64>,
+    pub stop_rel_err: Vec<f64>,
+    /// ... and those states that predicted no stop.
+    pub stop_not_predicted: usize,
+    /// Errors [`PHASE_HORIZON_S`] ahead by phase ([`Phase`]).
+    pub phase_err_m: [Vec<f64>; 3],
+}
+
+/// The horizon the phases are scored at.
+pub const PHASE_HORIZON_S: f64 = 2.0;
+/// A state this soon after a push is in its first moments.
+pub const AFTER_PUSH_S: f64 = 0.5;
+
+/// What a state's window holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// Within [`AFTER_PUSH_S`] of a push's end: the kick's speed still being learned.
+    AfterPush = 0,
+    /// A wall bounce within the window.
+    AcrossBounce = 1,
+    /// Neither: the ball rolls (or slides) freely, perhaps to a stop.
+    Free = 2,
+}
+
+impl Phase {
+    pub const ALL: [Phase; 3] = [Phase::AfterPush, Phase::AcrossBounce, Phase::Free];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::AfterPush => "first 0.5 s after a push",
+            Phase::AcrossBounce => "across a wall bounce",
+            Phase::Free => "no bounce ahead",
+        }
+    }
 }
 
 impl TrackSamples {
@@ -372,6 +417,12 @@ impl TrackSamples {
         self.kicks_inferred += o.kicks_inferred;
         self.kicks_unprompted += o.kicks_unprompted;
         self.bounces_seen += o.bounces_seen;
+        self.stop_err_m.extend(&o.stop_err_m);
+        self.stop_rel_err.extend(&o.stop_rel_err);
+        self.stop_not_predicted += o.stop_not_predicted;
+        for k in 0..3 {
+            self.phase_err_m[k].extend(&o.phase_err_m[k]);
+        }
     }
 }
 
@@ -437,7 +488,22 @@ pub fn score_ticks(
                 s.pushed_windows[k] += 1;
                 continue;
             }
-            s.horizon_err_m[k].push(dist(r.predicted[k], future));
+            let err = dist(r.predicted[k], future);
+            s.horizon_err_m[k].push(err);
+            if (h - PHASE_HORIZON_S).abs() < 1e-9 {
+                let after_push = events
+                    .pushes
+                    .iter()
+                    .any(|(a, b)| *a <= r.t_s && r.t_s - b <= AFTER_PUSH_S);
+                let phase = if after_push {
+                    Phase::AfterPush
+                } else if events.bounces.iter().any(|b| b.t_s > r.t_s && b.t_s <= t_f) {
+                    Phase::AcrossBounce
+                } else {
+                    Phase::Free
+                };
+                s.phase_err_m[phase as usize].push(err);
+            }
         }
         if method.predicts_bounces()
             && let Some(b) = events.next_bounce(r.t_s)
@@ -449,6 +515,21 @@ pub fn score_ticks(
             match tick.bounces.iter().find(|(_, wall)| *wall == b.wall) {
                 Some((predicted, _)) => s.bounce_time_err_s.push((predicted - b.t_s).abs()),
                 None => s.bounce_missed += 1,
+            }
+        }
+        if method.predicts_stops()
+            && recent_speed(track, r.t_s).is_some_and(|v| v > MOVING_MPS)
+            && let Some((t_stop, p_stop)) = events.next_stop(r.t_s)
+            && !events.course_changed_between(r.t_s, t_stop)
+            && dist(now, p_stop) >= STOP_MIN_TO_GO_M
+        {
+            match r.stop {
+                Some((_, predicted)) => {
+                    let err = dist(predicted, p_stop);
+                    s.stop_err_m.push(err);
+                    s.stop_rel_err.push(err / dist(now, p_stop));
+                }
+                None => s.stop_not_predicted += 1,
             }
         }
         if let Some(status) = tick.status

@@ -26,6 +26,13 @@ pub const PUSH_SPEED_GAIN_MPS: f64 = 0.25;
 pub const PUSH_LOOKBACK_S: f64 = 0.3;
 /// A course change is measured between the smoothed velocities this long apart.
 pub const STRIKE_SPAN_S: f64 = 4.0 * SMOOTHING_HALF_WINDOW_S;
+/// A ball slower than this is about to stop...
+pub const STOP_FROM_MPS: f64 = 0.1;
+/// ... and has stopped when it then stays within this of one place for this long.
+pub const REST_SPREAD_M: f64 = 0.03;
+pub const REST_S: f64 = 0.5;
+/// A ball moved (and may stop again) once faster than this.
+pub const STOP_MOVED_MPS: f64 = 0.3;
 /// A push is taken to act over this span around the sample that reveals it.
 const PUSH_BEFORE_S: f64 = 2.0 * SMOOTHING_HALF_WINDOW_S;
 const PUSH_AFTER_S: f64 = SMOOTHING_HALF_WINDOW_S;
@@ -52,6 +59,10 @@ pub struct TrackEvents {
     /// every wall than [`BOUNCE_NEAR_RADII`] radii and the distance it covers in half that
     /// span and the smoothing's reach.
     pub course_changes: Vec<(f64, f64)>,
+    /// Where the ball came to rest, and when: the samples of the [`REST_S`] after its
+    /// smoothed speed last fell below [`STOP_FROM_MPS`] all lie within [`REST_SPREAD_M`] of
+    /// their mean, which is the place.
+    pub stops: Vec<(f64, [f64; 2])>,
 }
 
 impl TrackEvents {
@@ -73,12 +84,14 @@ impl TrackEvents {
         }
         pushes.sort_by(|a, b| a.0.total_cmp(&b.0));
         let course_changes = course_changes(&times_s, &pos, &velocity_mps, bounds, near_m);
+        let stops = stops(&times_s, &pos, &velocity_mps);
         TrackEvents {
             times_s,
             velocity_mps,
             bounces,
             pushes,
             course_changes,
+            stops,
         }
     }
 
@@ -111,6 +124,11 @@ impl TrackEvents {
                 .course_changes
                 .iter()
                 .any(|(a, b)| *a <= t1_s && *b > t0_s)
+    }
+
+    /// The ball's next stop after `t_s`: when and where.
+    pub fn next_stop(&self, t_s: f64) -> Option<(f64, [f64; 2])> {
+        self.stops.iter().find(|s| s.0 > t_s).copied()
     }
 
     /// The first bounce after `t_s`.
@@ -315,6 +333,43 @@ fn course_changes(
         match out.last_mut() {
             Some(last) if last.1 >= span.0 => last.1 = span.1,
             _ => out.push(span),
+        }
+    }
+    out
+}
+
+/// See [`TrackEvents::stops`].
+fn stops(t: &[f64], pos: &[[f64; 2]], vel: &[[f64; 2]]) -> Vec<(f64, [f64; 2])> {
+    let speed = |i: usize| vel[i][0].hypot(vel[i][1]);
+    let mut out = Vec::new();
+    // Only a ball that moved since its last stop stops again (the noise of one at rest
+    // crosses the threshold now and then).
+    let mut moved = false;
+    for i in 1..t.len() {
+        moved |= speed(i) > STOP_MOVED_MPS;
+        if !(moved && speed(i - 1) >= STOP_FROM_MPS && speed(i) < STOP_FROM_MPS) {
+            continue;
+        }
+        let end = t.partition_point(|x| *x <= t[i] + REST_S);
+        let rest = &pos[i..end];
+        // The rest must be seen whole (no break in the track within it).
+        let whole = end > i + 1
+            && t[end - 1] - t[i] >= 0.9 * REST_S
+            && t[i..end].windows(2).all(|w| w[1] - w[0] < 0.25);
+        if !whole {
+            continue;
+        }
+        let n = rest.len() as f64;
+        let mean = [
+            rest.iter().map(|p| p[0]).sum::<f64>() / n,
+            rest.iter().map(|p| p[1]).sum::<f64>() / n,
+        ];
+        if rest
+            .iter()
+            .all(|p| (p[0] - mean[0]).hypot(p[1] - mean[1]) <= REST_SPREAD_M)
+        {
+            out.push((t[i], mean));
+            moved = false;
         }
     }
     out

@@ -3,8 +3,8 @@
 
 use crate::plot::{Chart, Marker, PALETTE, Series, Style};
 use crate::track_eval::{
-    BOUNCE_WINDOW_S, EVENT_MATCH_S, MOVING_MPS, RELOCATION_FOUND_M, TICK_S, TrackMethod, TrackRun,
-    TrackSamples,
+    AFTER_PUSH_S, BOUNCE_WINDOW_S, EVENT_MATCH_S, MOVING_MPS, PHASE_HORIZON_S, Phase,
+    RELOCATION_FOUND_M, STOP_MIN_TO_GO_M, TICK_S, TrackMethod, TrackRun, TrackSamples,
 };
 use crate::track_obs::ObserverSetup;
 use proto::Pitch;
@@ -81,6 +81,7 @@ pub struct MethodSummary {
     pub kick_onset_lag_s: Spread,
     /// The motion parameters at the end of each track (fusion methods).
     pub final_decel_mps2: Option<Spread>,
+    pub final_slide_decel_mps2: Option<Spread>,
     pub final_restitution: Option<Spread>,
     pub final_restitution_samples: Option<Spread>,
     pub observations_applied: u64,
@@ -93,6 +94,15 @@ pub struct MethodSummary {
     /// The track's wall bounces with no push near, and how the core took them (methods
     /// that tell bounces from kicks).
     pub bounces: Option<BounceRecognition>,
+    /// Where the ball stops (methods that predict it): the error, the error over the
+    /// distance still to go, the share within 10 % of it, and the states that predicted no
+    /// stop.
+    pub stop_error_m: Option<Spread>,
+    pub stop_relative_error: Option<Spread>,
+    pub stop_within_10_percent: Option<f64>,
+    pub stop_not_predicted: usize,
+    /// Errors [`PHASE_HORIZON_S`] ahead by phase, keyed by [`Phase::name`].
+    pub phase_error_m: BTreeMap<String, Spread>,
 }
 
 /// The track's clear wall bounces (no push within [`EVENT_MATCH_S`]) as the core took them.
@@ -143,6 +153,7 @@ impl MethodSummary {
             moving_states: s.moving_states,
             kick_onset_lag_s: Spread::of(&s.onset_lag_s),
             final_decel_mps2: spread_of(|m| m.rolling_decel_mps2),
+            final_slide_decel_mps2: spread_of(|m| m.slide_decel_mps2),
             final_restitution: spread_of(|m| m.wall_restitution),
             final_restitution_samples: spread_of(|m| f64::from(m.restitution_samples)),
             observations_applied: s.observations_applied,
@@ -160,6 +171,24 @@ impl MethodSummary {
                 kicks_inferred: s.kicks_inferred,
                 kicks_unprompted: s.kicks_unprompted,
             }),
+            stop_error_m: method.predicts_stops().then(|| Spread::of(&s.stop_err_m)),
+            stop_relative_error: method.predicts_stops().then(|| Spread::of(&s.stop_rel_err)),
+            stop_within_10_percent: (method.predicts_stops() && !s.stop_rel_err.is_empty()).then(
+                || {
+                    s.stop_rel_err.iter().filter(|r| **r <= 0.1).count() as f64
+                        / s.stop_rel_err.len() as f64
+                },
+            ),
+            stop_not_predicted: s.stop_not_predicted,
+            phase_error_m: Phase::ALL
+                .iter()
+                .map(|p| {
+                    (
+                        p.name().to_string(),
+                        Spread::of(&s.phase_err_m[*p as usize]),
+                    )
+                })
+                .collect(),
         }
     }
 }
@@ -271,7 +300,7 @@ pub fn markdown(rep: &TracksReport) -> String {
     s.push_str(
         "\nCells: median / 90th percentile (number of states scored).\n\n\
          | method | bounce time error, ms (n, no bounce predicted) | first estimate after, s | \
-         stopped while moving | kick onset lag, ms (n) | deceleration at the end, m/s² | \
+         stopped while moving | kick onset lag, ms (n) | deceleration at the end (slide), m/s² | \
          restitution at the end (bounces learnt from) |\n\
          |---|---|---|---|---|---|---|\n",
     );
@@ -288,10 +317,14 @@ pub fn markdown(rep: &TracksReport) -> String {
         let stopped = m.stopped_while_moving.map_or("–".into(), |x| {
             format!("{:.1} % of {}", x * 100.0, m.moving_states)
         });
-        let decel = m
-            .final_decel_mps2
-            .as_ref()
-            .map_or("–".into(), |d| opt(d.median, |v| format!("{v:.3}")));
+        let decel = match (&m.final_decel_mps2, &m.final_slide_decel_mps2) {
+            (Some(d), Some(sl)) => format!(
+                "{} (slide {})",
+                opt(d.median, |v| format!("{v:.3}")),
+                opt(sl.median, |v| format!("{v:.2}"))
+            ),
+            _ => "–".into(),
+        };
         let rest = match (&m.final_restitution, &m.final_restitution_samples) {
             (Some(r), Some(n)) => format!(
                 "{} ({})",
@@ -310,6 +343,25 @@ pub fn markdown(rep: &TracksReport) -> String {
             m.method,
             opt(m.first_estimate_s.median, |v| format!("{v:.2}")),
         ));
+    }
+    s.push_str(&format!(
+        "\n{PHASE_HORIZON_S:.0} s ahead by what the window holds (cm, median / p90 (states)): \
+         the first {AFTER_PUSH_S:.1} s after a push (the kick's speed still being learned), a \
+         wall bounce, neither.\n\n| method |"
+    ));
+    for p in Phase::ALL {
+        s.push_str(&format!(" {} |", p.name()));
+    }
+    s.push_str("\n|---|---|---|---|\n");
+    for m in &rep.methods {
+        s.push_str(&format!("| {} |", m.method));
+        for p in Phase::ALL {
+            s.push_str(&format!(
+                " {} |",
+                m.phase_error_m.get(p.name()).map_or("–".into(), cm)
+            ));
+        }
+        s.push('\n');
     }
     s.push_str(&format!(
         "\nWall bounces with nothing else changing the ball's course within {:.1} s, as the core \
@@ -333,6 +385,39 @@ pub fn markdown(rep: &TracksReport) -> String {
             b.kicks_inferred,
             b.kicks_unprompted
         ));
+    }
+    if rep
+        .methods
+        .iter()
+        .any(|m| m.stop_error_m.as_ref().is_some_and(|e| e.n > 0))
+    {
+        s.push_str(&format!(
+            "\nWhere the ball stops, from the states of a moving ball at least {:.0} cm from its \
+             next stop with nothing changing its course before it: the predicted stop's error, \
+             that error over the distance still to go, and the share of states within 10 % of \
+             it.\n\n\
+             | method | stop error, cm | error / distance to go | within 10 % | no stop predicted |\n\
+             |---|---|---|---|---|\n",
+            STOP_MIN_TO_GO_M * 100.0
+        ));
+        for m in &rep.methods {
+            let (Some(e), Some(r)) = (&m.stop_error_m, &m.stop_relative_error) else {
+                continue;
+            };
+            let rel = match (r.median, r.p90) {
+                (Some(md), Some(p)) => {
+                    format!("{:.0} % / {:.0} % ({})", md * 100.0, p * 100.0, r.n)
+                }
+                _ => "–".into(),
+            };
+            s.push_str(&format!(
+                "| {} | {} | {rel} | {} | {} |\n",
+                m.method,
+                cm(e),
+                opt(m.stop_within_10_percent, |v| format!("{:.0} %", v * 100.0)),
+                m.stop_not_predicted
+            ));
+        }
     }
     let relocated = |m: &MethodSummary| m.relocation_found_s.n + m.relocations_not_found;
     if rep.methods.iter().any(|m| relocated(m) > 0) {

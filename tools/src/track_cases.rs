@@ -16,6 +16,12 @@
 //!   between strikes is bounces off the walls); 60 s at 120 Hz.
 //! - `kick-on-arrival`: as `relocations`, but the ball is kicked the moment it is put
 //!   down (after 0.05 s), so a tracker sees a ball appear somewhere new already moving.
+//! - `hard-kicks`: as `relocations`, on a 9.6 m × 6.6 m pitch, kicked at 3–7 m/s by a
+//!   floor unlike the core's starting model: it slides at 4.5 m/s² until its speed falls to
+//!   0.55 of the kick's (longer than the core's 3 m/s² to 0.64 after a hard kick), then
+//!   rolls at 0.25 m/s² plus 0.06 m/s² per m/s (a rolling resistance that grows with
+//!   speed, which the core's constant deceleration does not have); walls return 0.5 of the
+//!   normal speed and 0.8 of the tangential.
 //!
 //! All are made here, from physics written here: they are *synthetic*, never to be taken
 //! for recordings. They exercise the evaluation on motion the simulator's scenarios lack
@@ -26,7 +32,13 @@ use crate::tracks::TrackSample;
 use sim::Rng;
 
 /// The cases, by name.
-pub const CASES: [&str; 4] = ["relocations", "puck", "puck-hits", "kick-on-arrival"];
+pub const CASES: [&str; 5] = [
+    "relocations",
+    "puck",
+    "puck-hits",
+    "kick-on-arrival",
+    "hard-kicks",
+];
 
 /// One case's track, its pitch (`LxW`, for `--pitch`) and its `# source:` line.
 #[derive(Debug, Clone)]
@@ -40,6 +52,8 @@ struct Physics {
     half: [f64; 2],
     slide_mps2: f64,
     roll_mps2: f64,
+    /// Extra rolling deceleration per m/s of speed.
+    roll_per_mps: f64,
     /// Sliding ends at this share of the kick's speed.
     slide_until: f64,
     restitution: f64,
@@ -60,7 +74,7 @@ impl Physics {
             let a = if speed > self.slide_until * b.kick_speed {
                 self.slide_mps2
             } else {
-                self.roll_mps2
+                self.roll_mps2 + self.roll_per_mps * speed
             };
             let k = (speed - a * dt).max(0.0) / speed;
             b.v = [b.v[0] * k, b.v[1] * k];
@@ -90,6 +104,7 @@ pub fn case(name: &str, seed: u64) -> Option<Case> {
     match name {
         "relocations" => Some(relocations(&mut rng, seed, Rest::Settle)),
         "kick-on-arrival" => Some(relocations(&mut rng, seed, Rest::KickOnArrival)),
+        "hard-kicks" => Some(hard_kicks(&mut rng, seed)),
         "puck" => Some(puck(&mut rng, seed)),
         "puck-hits" => Some(puck_hits(&mut rng, seed)),
         _ => None,
@@ -111,14 +126,75 @@ fn relocations(rng: &mut Rng, seed: u64, rest: Rest) -> Case {
         half: [len / 2.0 - r, wid / 2.0 - r],
         slide_mps2: 3.0,
         roll_mps2: 0.3,
+        roll_per_mps: 0.0,
         slide_until: 0.64,
         restitution: 0.6,
         tangential: 0.9,
     };
+    let samples = kicked_about(rng, &ph, rest, (1.5, 4.0), [3.5, 2.3], 0.0);
+    let (name, kicked) = match rest {
+        Rest::Settle => ("relocations", ""),
+        Rest::KickOnArrival => ("kick-on-arrival", ", kicked 0.05 s after it is put down"),
+    };
+    Case {
+        samples,
+        pitch: "9x6",
+        source: format!(
+            "SYNTHETIC, not a real recording: ten kicks on a 9 m x 6 m walled pitch, the ball \
+             picked up and put down 2 m or more away between them{kicked}; slide 3 m/s2 to \
+             0.64 of the kick speed then roll 0.3 m/s2, walls 0.6 normal and 0.9 tangential; \
+             100 Hz; written by `cargo run --release -p tools --bin sim_track -- --case \
+             {name} --seed {seed}`"
+        ),
+    }
+}
+
+fn hard_kicks(rng: &mut Rng, seed: u64) -> Case {
+    let (len, wid, r) = (9.6, 6.6, 0.04);
+    let ph = Physics {
+        half: [len / 2.0 - r, wid / 2.0 - r],
+        slide_mps2: 4.5,
+        roll_mps2: 0.25,
+        roll_per_mps: 0.06,
+        slide_until: 0.55,
+        restitution: 0.5,
+        tangential: 0.8,
+    };
+    let samples = kicked_about(rng, &ph, Rest::Settle, (3.0, 7.0), [3.8, 2.6], 1.0);
+    Case {
+        samples,
+        pitch: "9.6x6.6",
+        source: format!(
+            "SYNTHETIC, not a real recording: ten kicks at 3-7 m/s on a 9.6 m x 6.6 m walled \
+             pitch, each seen at rest for 1 s, then picked up and put down 2 m or more away; \
+             slide \
+             4.5 m/s2 to 0.55 of the kick speed then roll 0.25 m/s2 plus 0.06 m/s2 per m/s, \
+             walls 0.5 normal and 0.8 tangential; 100 Hz; written by `cargo run --release -p \
+             tools --bin sim_track -- --case hard-kicks --seed {seed}`"
+        ),
+    }
+}
+
+/// Ten kicks at `speeds` (m/s, uniform), each left to stop and seen at rest for
+/// `rest_after_s`, the ball then carried 1–2 s (no samples) and put down at least 2 m away,
+/// within ±`spots_m` of the centre; 100 Hz.
+fn kicked_about(
+    rng: &mut Rng,
+    ph: &Physics,
+    rest: Rest,
+    speeds: (f64, f64),
+    spots_m: [f64; 2],
+    rest_after_s: f64,
+) -> Vec<TrackSample> {
     let rate_s = 1.0 / 100.0;
     let mut samples = Vec::new();
     let (mut t, mut next_sample) = (0.0, 0.0);
-    let spot = |rng: &mut Rng| [rng.range(-3.5, 3.5), rng.range(-2.3, 2.3)];
+    let spot = |rng: &mut Rng| {
+        [
+            rng.range(-spots_m[0], spots_m[0]),
+            rng.range(-spots_m[1], spots_m[1]),
+        ]
+    };
     let mut b = Ball {
         p: spot(rng),
         v: [0.0, 0.0],
@@ -130,10 +206,11 @@ fn relocations(rng: &mut Rng, seed: u64, rest: Rest) -> Case {
             Rest::Settle => rng.range(0.5, 1.0),
             Rest::KickOnArrival => 0.05,
         };
-        let speed = rng.range(1.5, 4.0);
+        let speed = rng.range(speeds.0, speeds.1);
         let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
         let mut clock = 0.0;
         let mut kicked = false;
+        let mut stopped_s: Option<f64> = None;
         loop {
             if !kicked && clock >= rest_s {
                 ph.kick(&mut b, speed, heading);
@@ -149,7 +226,10 @@ fn relocations(rng: &mut Rng, seed: u64, rest: Rest) -> Case {
             ph.step(&mut b, STEP_S);
             t += STEP_S;
             clock += STEP_S;
-            if kicked && b.v == [0.0, 0.0] && clock > rest_s + 1.0 {
+            if kicked && b.v == [0.0, 0.0] {
+                stopped_s.get_or_insert(clock);
+            }
+            if stopped_s.is_some_and(|at| clock > rest_s + 1.0 && clock >= at + rest_after_s) {
                 break;
             }
         }
@@ -166,21 +246,7 @@ fn relocations(rng: &mut Rng, seed: u64, rest: Rest) -> Case {
             };
         }
     }
-    let (name, kicked) = match rest {
-        Rest::Settle => ("relocations", ""),
-        Rest::KickOnArrival => ("kick-on-arrival", ", kicked 0.05 s after it is put down"),
-    };
-    Case {
-        samples,
-        pitch: "9x6",
-        source: format!(
-            "SYNTHETIC, not a real recording: ten kicks on a 9 m x 6 m walled pitch, the ball \
-             picked up and put down 2 m or more away between them{kicked}; slide 3 m/s2 to \
-             0.64 of the kick speed then roll 0.3 m/s2, walls 0.6 normal and 0.9 tangential; \
-             100 Hz; written by `cargo run --release -p tools --bin sim_track -- --case \
-             {name} --seed {seed}`"
-        ),
-    }
+    samples
 }
 
 /// A strike of a puck: its speed (m/s), heading (rad) and the time to the next (s).
@@ -203,6 +269,7 @@ fn struck_puck(
         half: [len / 2.0 - r, wid / 2.0 - r],
         slide_mps2: 0.05,
         roll_mps2: 0.05,
+        roll_per_mps: 0.0,
         slide_until: 0.0,
         restitution,
         tangential: 1.0,

@@ -195,3 +195,26 @@ fn a_strike_that_slows_and_turns_the_ball_is_a_course_change_and_a_bounce_is_not
     assert_eq!(ev.bounces.len(), 1);
     assert!(ev.course_changes.is_empty(), "{:?}", ev.course_changes);
 }
+
+#[test]
+fn a_ball_that_comes_to_rest_is_a_stop_where_it_rests() {
+    let b = bounds();
+    // Rolls from rest after 0.5 s, stops, and is seen at rest for a second.
+    let (samples, _) = Roll {
+        start_m: [-1.0, 0.0],
+        velocity_mps: [0.9, 0.0],
+        kick_at_s: 0.5,
+        duration_s: 5.5,
+        ..Roll::default()
+    }
+    .run(&b);
+    let rest_x = -1.0 + 0.9 * 0.9 / (2.0 * 0.3);
+    let ev = TrackEvents::of(&track(with_noise(samples, 0.003, 9)), &b, 0.04);
+    assert_eq!(ev.stops.len(), 1, "{:?}", ev.stops);
+    let (t, p) = ev.stops[0];
+    assert!((p[0] - rest_x).abs() < 0.02, "{p:?} vs {rest_x}");
+    // Its speed falls below 0.1 m/s 3.17 s in (a third of a second before it stops).
+    assert!((t - 3.17).abs() < 0.25, "{t}");
+    assert_eq!(ev.next_stop(1.0).map(|s| s.0), Some(t));
+    assert_eq!(ev.next_stop(t + 0.1), None);
+}
