@@ -39,6 +39,7 @@
 
 use super::motion::MotionModel;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use slide_end::{KickRun, MAX_RUN, ratio_sample};
 use std::collections::VecDeque;
 
 /// Settings of the learning.
@@ -47,6 +48,8 @@ pub struct SurfaceConfig {
     /// Uncertainty of the starting values (their prior weight is 1/σ²).
     pub decel_sigma_mps2: f64,
     pub slide_sigma_mps2: f64,
+    /// Uncertainty of the share of the kick's speed at which the slide ends.
+    pub roll_ratio_sigma: f64,
     pub restitution_sigma: f64,
     pub tangential_sigma: f64,
     /// Sightings this close to an event belong to neither side of it.
@@ -103,6 +106,7 @@ impl Default for SurfaceConfig {
         SurfaceConfig {
             decel_sigma_mps2: 0.1,
             slide_sigma_mps2: 1.5,
+            roll_ratio_sigma: 0.1,
             restitution_sigma: 0.15,
             tangential_sigma: 0.1,
             guard_s: 0.025,
@@ -495,8 +499,11 @@ pub struct Surface {
     cfg: SurfaceConfig,
     learn_floor: bool,
     learn_walls: bool,
-    roll_ratio: f64,
     rolling: Estimate,
+    /// The share of the kick's speed at which a kicked ball starts to roll...
+    roll_ratio: Estimate,
+    /// ... measured from the sightings after the last kick.
+    kick_run: Option<KickRun>,
     slide: Estimate,
     restitution: Estimate,
     tangential: Estimate,
@@ -526,6 +533,9 @@ pub struct Surface {
     /// ... and whenever the restitution or a wall's place does.
     walls_version: u64,
 }
+
+/// The sightings after a kick are searched for the slide's end for at most this long.
+const KICK_RUN_MAX_S: f64 = 2.0;
 
 /// The smallest spread one bounce's crossing is taken to have.
 const WALL_SAMPLE_FLOOR_M: f64 = 0.01;
@@ -562,7 +572,16 @@ impl Surface {
         Surface {
             learn_floor,
             learn_walls,
-            roll_ratio: base.roll_ratio,
+            roll_ratio: Estimate::new(
+                base.roll_ratio,
+                cfg.roll_ratio_sigma,
+                Limits {
+                    sample: (0.2, 0.98),
+                    mean: (0.3, 0.95),
+                    sample_floor: 0.02,
+                },
+            ),
+            kick_run: None,
             rolling: Estimate::new(base.decel_mps2, cfg.decel_sigma_mps2, decel),
             slide: Estimate::new(base.slide_decel_mps2, cfg.slide_sigma_mps2, decel),
             restitution: Estimate::new(
@@ -608,6 +627,7 @@ impl Surface {
         MotionModel {
             decel_mps2: self.rolling.mean(),
             slide_decel_mps2: self.slide.mean().max(self.rolling.mean()),
+            roll_ratio: self.roll_ratio.mean(),
             restitution: self.restitution.mean(),
             tangential_retention: self.tangential.mean(),
             ..*base
@@ -620,6 +640,11 @@ impl Surface {
 
     pub fn slide_decel(&self) -> Learned {
         self.slide.learned()
+    }
+
+    /// The share of the kick's speed at which a kicked ball starts to roll.
+    pub fn roll_ratio(&self) -> Learned {
+        self.roll_ratio.learned()
     }
 
     pub fn restitution(&self) -> Learned {
@@ -690,6 +715,13 @@ impl Surface {
         if t_s > self.slide_until_s && self.slide_until_s > self.slide_from_s {
             self.commit(self.slide_until_s);
             self.finish_slide();
+        }
+        if self
+            .kick_run
+            .as_ref()
+            .is_some_and(|r| t_s - self.cfg.commit_delay_s > r.until_s)
+        {
+            self.finish_kick_run();
         }
         if speed_mps < self.cfg.roll_min_speed_mps && self.roll_from_s.is_finite() {
             // Stopping: the stretch ends here (a parabola does not fit a stop).
@@ -781,7 +813,7 @@ impl Surface {
         self.from_s = t_s + self.cfg.guard_s;
         let (slide, roll) = (self.slide.mean(), self.rolling.mean());
         let slide_s = if slide > roll {
-            (1.0 - self.roll_ratio) * speed_mps / slide
+            (1.0 - self.roll_ratio.mean()) * speed_mps / slide
         } else {
             0.0
         };
@@ -789,6 +821,12 @@ impl Surface {
         self.slide_until_s = t_s + slide_s.clamp(0.0, self.cfg.slide_max_span_s).max(0.1);
         self.slide_fit = None;
         self.roll_from_s = t_s + slide_s + self.cfg.settle_after_kick_s;
+        // The slide's end is looked for until well after it is expected.
+        self.kick_run = (slide_s > 0.0 && speed_mps.is_finite()).then(|| KickRun {
+            t_s,
+            until_s: t_s + (2.0 * slide_s + 0.4).min(KICK_RUN_MAX_S),
+            seen: Vec::new(),
+        });
     }
 
     /// A new ball (the estimate switched to another hypothesis, or a robot touches it):
@@ -804,6 +842,7 @@ impl Surface {
         self.slide_fit = None;
         self.slide_from_s = f64::INFINITY;
         self.slide_until_s = f64::NEG_INFINITY;
+        self.kick_run = None;
         self.from_s = t_s;
         self.roll_from_s = t_s + self.cfg.settle_after_kick_s;
     }
@@ -828,6 +867,7 @@ impl Surface {
             self.finish_slide();
         }
         self.finish_roll();
+        self.finish_kick_run();
         later
     }
 
@@ -860,6 +900,13 @@ impl Surface {
                     self.roll
                         .get_or_insert_with(|| Moments::new(s.t_s, s.z))
                         .add(&s);
+                }
+                if let Some(run) = self.kick_run.as_mut()
+                    && s.t_s >= run.t_s + self.cfg.guard_s
+                    && s.t_s <= run.until_s
+                    && run.seen.len() < MAX_RUN
+                {
+                    run.seen.push(s);
                 }
                 if s.t_s >= self.slide_from_s && s.t_s <= self.slide_until_s && self.learn_floor {
                     self.slide_fit
@@ -938,6 +985,21 @@ impl Surface {
             return;
         };
         if self.slide.add(decel, var, &self.cfg) {
+            self.version += 1;
+        }
+    }
+
+    /// Measures where the last kick's slide ended, from the sightings since it.
+    fn finish_kick_run(&mut self) {
+        let Some(run) = self.kick_run.take() else {
+            return;
+        };
+        if !self.learn_floor {
+            return;
+        }
+        if let Some((r, var)) = ratio_sample(&run, self.rolling.mean())
+            && self.roll_ratio.add(r, var, &self.cfg)
+        {
             self.version += 1;
         }
     }
@@ -1077,5 +1139,6 @@ fn bounce_sample(
     Some((((e, var_e), tangential), (at[k], var_at)))
 }
 
+mod slide_end;
 #[cfg(test)]
 mod tests;

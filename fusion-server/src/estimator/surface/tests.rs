@@ -175,6 +175,39 @@ fn a_slide_learned_away_from_a_wrong_prior() {
     assert!((s.model(&base).slide_decel_mps2 - 3.0).abs() < 0.5);
 }
 
+#[test]
+fn where_a_hard_kick_stops_sliding_is_learned() {
+    // Kicks at 5 m/s slide at 4 m/s² down to 0.5 of the kick's speed (the prior says 0.64);
+    // seen at 130 Hz with 3 mm noise.
+    let mut rng = Noise(11);
+    let w = World {
+        ratio: 0.5,
+        ..big_room(0.3, 4.0)
+    };
+    let kicks = straight_kicks(6, 5.0, &mut rng);
+    let events = play(&w, &kicks, 2.5, 1.0 / 130.0, 0.003, &mut rng);
+    let base = MotionModel {
+        slide_decel_mps2: 4.0,
+        ..MotionModel::default()
+    };
+    let mut s = Surface::new(&base, SurfaceConfig::default(), true, true);
+    feed(&mut s, &events, 0.003);
+    let r = s.roll_ratio();
+    assert!(r.samples >= 4, "{r:?}");
+    assert!((r.mean - 0.5).abs() < 0.04, "{r:?}");
+    assert!((s.model(&base).roll_ratio - r.mean).abs() < 1e-12);
+    // Where it is the prior's, it stays there.
+    let w = World { ratio: 0.64, ..w };
+    let events = play(&w, &kicks, 2.5, 1.0 / 130.0, 0.003, &mut rng);
+    let mut s = Surface::new(&base, SurfaceConfig::default(), true, true);
+    feed(&mut s, &events, 0.003);
+    assert!(
+        (s.roll_ratio().mean - 0.64).abs() < 0.03,
+        "{:?}",
+        s.roll_ratio()
+    );
+}
+
 fn bouncy_world() -> World {
     World {
         half: [1.0, 0.7],
