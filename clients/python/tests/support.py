@@ -32,6 +32,8 @@ BALL_STATE = {
         "restitution_samples": 4,
         "tangential_retention": 0.9,
         "slide_decel_mps2": 2.8,
+        "bounces_seen": 9,
+        "kicks_inferred": 2,
     },
     "prediction": {
         "version": 1,

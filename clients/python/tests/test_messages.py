@@ -36,6 +36,7 @@ class ParsesTheProtocolExamples(unittest.TestCase):
         self.assertAlmostEqual(s.existence, 0.97)
         self.assertEqual(s.model.decel_samples, 12)
         self.assertAlmostEqual(s.model.slide_decel_mps2, 2.8)
+        self.assertEqual((s.model.bounces_seen, s.model.kicks_inferred), (9, 2))
         p = s.prediction
         self.assertEqual([x.t_s for x in p.samples], [0.0, 1.0, 2.0])
         self.assertEqual(p.bounces[0].wall, "x_max")
@@ -59,6 +60,8 @@ class ParsesTheProtocolExamples(unittest.TestCase):
         s = state(existence=DELETE, last_seen=None)
         del s["model"]["tangential_retention"]
         del s["model"]["slide_decel_mps2"]
+        del s["model"]["bounces_seen"]
+        del s["model"]["kicks_inferred"]
         s["prediction"]["stop"] = None
         b = parse_ball_state(dumps(s))
         self.assertEqual(b.existence, 1.0)
@@ -66,6 +69,7 @@ class ParsesTheProtocolExamples(unittest.TestCase):
         self.assertIsNone(b.last_seen_s)
         self.assertEqual(b.model.tangential_retention, 0.85)
         self.assertEqual(b.model.slide_decel_mps2, 3.0)
+        self.assertEqual((b.model.bounces_seen, b.model.kicks_inferred), (0, 0))
         self.assertIsNone(b.prediction.stop)
         del s["prediction"]["stop"]
         self.assertIsNone(parse_ball_state(dumps(s)).prediction.stop)

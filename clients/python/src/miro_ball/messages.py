@@ -235,6 +235,10 @@ class MotionModel:
     restitution_samples: int
     tangential_retention: float = 0.85
     slide_decel_mps2: float = 3.0
+    #: Wall bounces the estimate went through, and kicks nobody reported that the server
+    #: inferred, since it started (0 in states from servers that do not count them).
+    bounces_seen: int = 0
+    kicks_inferred: int = 0
 
 
 @dataclass(frozen=True)
@@ -476,7 +480,7 @@ def _decode_state(obj: Dict[str, Any]) -> BallState:
         r.obj["model"],
         "BallState.model",
         ("rolling_decel_mps2", "wall_restitution", "decel_samples", "restitution_samples"),
-        ("tangential_retention", "slide_decel_mps2"),
+        ("tangential_retention", "slide_decel_mps2", "bounces_seen", "kicks_inferred"),
     )
     model = MotionModel(
         rolling_decel_mps2=m.num("rolling_decel_mps2"),
@@ -485,6 +489,8 @@ def _decode_state(obj: Dict[str, Any]) -> BallState:
         restitution_samples=m.int_("restitution_samples", 2**32 - 1),
         tangential_retention=m.num("tangential_retention") if m.has("tangential_retention") else 0.85,
         slide_decel_mps2=m.num("slide_decel_mps2") if m.has("slide_decel_mps2") else 3.0,
+        bounces_seen=m.int_("bounces_seen", 2**32 - 1) if m.has("bounces_seen") else 0,
+        kicks_inferred=m.int_("kicks_inferred", 2**32 - 1) if m.has("kicks_inferred") else 0,
     )
     contributors = r.list_("contributors")
     if not all(isinstance(c, str) for c in contributors):
