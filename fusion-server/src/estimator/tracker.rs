@@ -586,8 +586,20 @@ impl Tracker {
             if seen_now || same_frame {
                 continue;
             }
+            // The camera looked at the hypothesis only if it looked at all of where it
+            // may be (its 2σ extent along each axis), not just at its centre: a ball just
+            // outside a footprint's edge, hidden by the robot's own body, is not refuted.
             let p = track.filter.position();
-            if !footprint.contains(p) {
+            let cov = track.filter.covariance();
+            let reach = [0, 1].map(|k| 2.0 * cov[(k, k)].max(0.0).sqrt());
+            let extent = [
+                p,
+                [p[0] + reach[0], p[1]],
+                [p[0] - reach[0], p[1]],
+                [p[0], p[1] + reach[1]],
+                [p[0], p[1] - reach[1]],
+            ];
+            if !extent.iter().all(|q| footprint.contains(*q)) {
                 continue;
             }
             let vetoed = track
