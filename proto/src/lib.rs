@@ -32,7 +32,7 @@ pub use keys::{DEFAULT_PREFIX, KeyError, KeySpace, camera_chunk, camera_of_chunk
 pub use messages::{
     BallState, BallStatus, BounceEvent, Camera, CameraFootprint, HeadJoints, Intercept,
     ModelParams, Observation, PathSample, PixelBall, Pose2, Prediction, RobotStatus, StageTiming,
-    StopPoint,
+    StopPoint, polygon_contains,
 };
 pub use pitch::{Pitch, WallSide};
 pub use stamp::Stamp;

@@ -80,6 +80,34 @@ pub struct CameraFootprint {
     pub polygon_m: Vec<[f64; 2]>,
 }
 
+impl CameraFootprint {
+    /// Whether the floor point `p` lies inside the footprint ([`polygon_contains`]).
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        polygon_contains(&self.polygon_m, p)
+    }
+}
+
+/// Whether `p` lies inside the polygon of `corners`, by the even–odd rule (so that a
+/// folded outline is still answered); never for fewer than three corners.
+pub fn polygon_contains(corners: &[[f64; 2]], p: [f64; 2]) -> bool {
+    if corners.len() < 3 {
+        return false;
+    }
+    let mut inside = false;
+    let mut j = corners.len() - 1;
+    for (i, a) in corners.iter().enumerate() {
+        let c = corners[j];
+        if (a[1] > p[1]) != (c[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (c[1] - a[1]) * (c[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+        j = i;
+    }
+    inside
+}
+
 /// A robot's periodic status. Published on `{prefix}/robots/{robot_id}/status`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -236,4 +264,25 @@ pub struct Intercept {
     /// Seconds after `stamp`.
     pub t_s: f64,
     pub point_m: [f64; 2],
+}
+
+#[cfg(test)]
+mod polygon_tests {
+    use super::*;
+
+    #[test]
+    fn a_point_is_inside_a_polygon_by_the_even_odd_rule() {
+        let square = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+        assert!(polygon_contains(&square, [1.0, 1.0]));
+        assert!(!polygon_contains(&square, [2.5, 1.0]));
+        assert!(!polygon_contains(&square, [1.0, -0.1]));
+        // A wedge, as a camera's footprint is.
+        let wedge = CameraFootprint {
+            camera: Camera::Left,
+            polygon_m: vec![[0.0, 0.0], [3.0, -1.0], [3.0, 1.0]],
+        };
+        assert!(wedge.contains([2.0, 0.0]));
+        assert!(!wedge.contains([0.5, 0.5]));
+        assert!(!polygon_contains(&square[..2], [1.0, 0.0]), "no area");
+    }
 }

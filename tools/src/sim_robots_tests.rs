@@ -30,21 +30,9 @@ fn modelled_counters_follow_the_published_sightings() {
     );
 }
 
-/// Even–odd point in polygon (the server's rule).
+/// The server's rule.
 fn inside(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
-    let mut inside = false;
-    let mut j = poly.len() - 1;
-    for i in 0..poly.len() {
-        let (a, c) = (poly[i], poly[j]);
-        if (a[1] > p[1]) != (c[1] > p[1]) {
-            let x = a[0] + (p[1] - a[1]) / (c[1] - a[1]) * (c[0] - a[0]);
-            if p[0] < x {
-                inside = !inside;
-            }
-        }
-        j = i;
-    }
-    inside
+    proto::polygon_contains(poly, p)
 }
 
 fn holds(footprints: &[proto::CameraFootprint], camera: Camera, p: [f64; 2]) -> bool {

@@ -204,20 +204,7 @@ impl Footprint {
         if !(p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3]) {
             return false;
         }
-        let n = self.corners.len();
-        let mut inside = false;
-        let mut j = n - 1;
-        for i in 0..n {
-            let (a, c) = (self.corners[i], self.corners[j]);
-            if (a[1] > p[1]) != (c[1] > p[1]) {
-                let x = a[0] + (p[1] - a[1]) / (c[1] - a[1]) * (c[0] - a[0]);
-                if p[0] < x {
-                    inside = !inside;
-                }
-            }
-            j = i;
-        }
-        inside
+        proto::polygon_contains(&self.corners, p)
     }
 }
 
