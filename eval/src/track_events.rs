@@ -320,13 +320,10 @@ fn course_changes(
         let reach =
             near_m + (half + SMOOTHING_HALF_WINDOW_S) * va[0].hypot(va[1]).max(vb[0].hypot(vb[1]));
         let p = pos[j];
-        let gaps = [
-            bounds.x_max - p[0],
-            p[0] - bounds.x_min,
-            bounds.y_max - p[1],
-            p[1] - bounds.y_min,
-        ];
-        if (0..4).any(|i| bounds.walls[i] && gaps[i] <= reach) {
+        if bounds
+            .walled_sides()
+            .any(|(wall_m, k, dir)| (wall_m - p[k]) * dir <= reach)
+        {
             continue;
         }
         let span = (t[j] - half, t[j] + half);

@@ -46,6 +46,12 @@ impl Bounds {
             WallSide::YMin => (self.y_min, 1, -1.0),
         }
     }
+
+    /// The sides that have walls: each wall's coordinate, its axis (0 = x, 1 = y) and the
+    /// sign of its outward normal.
+    pub fn walled_sides(&self) -> impl Iterator<Item = (f64, usize, f64)> + '_ {
+        (0..4).filter(|i| self.walls[*i]).map(|i| self.wall(i))
+    }
 }
 
 /// Parameters of the motion model, and the one piece of state a flight needs besides

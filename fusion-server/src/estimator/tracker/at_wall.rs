@@ -75,16 +75,9 @@ impl Tracker {
         };
         // Still coming in towards a wall it is at: the flight turned it too soon (the wall
         // stands farther out than it was put); what it does next tells.
-        let sides = [
-            (0, b.x_max, 1.0),
-            (0, b.x_min, -1.0),
-            (1, b.y_max, 1.0),
-            (1, b.y_min, -1.0),
-        ];
-        let coming_in = sides.iter().enumerate().any(|(side, (k, wall_m, dir))| {
-            let to_wall_m = (wall_m - now.z[*k]) * dir;
-            b.walls[side]
-                && v_out[*k] * dir >= MIN_NORMAL_IN_MPS
+        let coming_in = b.walled_sides().any(|(wall_m, k, dir)| {
+            let to_wall_m = (wall_m - now.z[k]) * dir;
+            v_out[k] * dir >= MIN_NORMAL_IN_MPS
                 && to_wall_m <= NEAR_WALL_M
                 && to_wall_m >= -self.cfg.surface.wall_max_offset_m
         });
@@ -126,28 +119,23 @@ impl Tracker {
         // change that is neither is no bounce.
         let mut walls: [Option<(f64, f64)>; 2] = [None, None];
         for k in 0..2 {
-            let sides = if k == 0 {
-                [(0, b.x_max, 1.0), (1, b.x_min, -1.0)]
-            } else {
-                [(2, b.y_max, 1.0), (3, b.y_min, -1.0)]
-            };
-            walls[k] = sides.into_iter().find_map(|(side, wall_m, dir)| {
-                if !b.walls[side] {
-                    return None;
-                }
-                // The latest filter that still came towards this wall.
-                let r = before
-                    .iter()
-                    .find(|r| r.before.velocity()[k] * dir >= MIN_NORMAL_IN_MPS)?;
-                let (p, v_in) = (r.before.position(), r.before.velocity());
-                let to_wall_m = (wall_m - p[k]) * dir;
-                let reach_m = NEAR_WALL_M
-                    + (NEAR_WALL_GAPS * gap_s + (kick.t_s - r.t_s).max(0.0)) * v_in[k].abs();
-                let e = -v_out[k] / v_in[k];
-                let near = (-NEAR_WALL_M..=reach_m).contains(&to_wall_m);
-                (near && (RESTITUTION_RANGE.0..=RESTITUTION_RANGE.1).contains(&e))
-                    .then_some((wall_m, v_in[k]))
-            });
+            walls[k] = b
+                .walled_sides()
+                .filter(|s| s.1 == k)
+                .find_map(|(wall_m, _, dir)| {
+                    // The latest filter that still came towards this wall.
+                    let r = before
+                        .iter()
+                        .find(|r| r.before.velocity()[k] * dir >= MIN_NORMAL_IN_MPS)?;
+                    let (p, v_in) = (r.before.position(), r.before.velocity());
+                    let to_wall_m = (wall_m - p[k]) * dir;
+                    let reach_m = NEAR_WALL_M
+                        + (NEAR_WALL_GAPS * gap_s + (kick.t_s - r.t_s).max(0.0)) * v_in[k].abs();
+                    let e = -v_out[k] / v_in[k];
+                    let near = (-NEAR_WALL_M..=reach_m).contains(&to_wall_m);
+                    (near && (RESTITUTION_RANGE.0..=RESTITUTION_RANGE.1).contains(&e))
+                        .then_some((wall_m, v_in[k]))
+                });
             if walls[k].is_none() {
                 let v_in = latest.before.velocity();
                 let change = (v_out[k] - v_in[k]).abs();
