@@ -8,7 +8,8 @@
 //!   robots, [`track_events`] finds its bounces and kicks, [`track_eval`] scores every method
 //!   and [`track_report`] writes the tables and the chart.
 //! - **Vision**: [`vision`] runs rendered cameras through the real agent pipeline and
-//!   [`vision_report`] reports it; [`photo_eval`] scores the detector on photos.
+//!   [`vision_report`] reports it; [`photo_eval`] scores the detector on photos;
+//!   [`teacher_eval`] scores a labeller (the teacher) box by box.
 //! - [`plot`]: the drawing primitives of every chart.
 //!
 //! Binary: `evaluate`.
@@ -21,6 +22,7 @@ pub mod plot;
 pub mod plots;
 pub mod report;
 pub mod scenarios;
+pub mod teacher_eval;
 pub mod track_eval;
 pub mod track_events;
 pub mod track_obs;

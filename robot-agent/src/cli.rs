@@ -21,13 +21,15 @@ pub mod labelled_patches;
 #[cfg(feature = "train")]
 pub mod net_train;
 pub mod progress;
+#[cfg(feature = "train")]
+pub mod teach;
 pub mod train;
 
 mod bar_chart;
 mod calibrate_cmd;
 mod calibrate_colour_cmd;
 mod camera_args;
-mod detect_cmd;
+pub(crate) mod detect_cmd;
 mod evaluate_cmd;
 mod pr_chart;
 mod run_cmd;

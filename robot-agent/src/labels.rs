@@ -9,6 +9,8 @@
 
 pub mod eval;
 pub mod prelabel;
+#[cfg(feature = "train")]
+pub mod teacher;
 pub mod voc;
 pub mod yolo;
 

@@ -8,6 +8,8 @@
 
 #[path = "evaluate/labelled_cmd.rs"]
 mod labelled_cmd;
+#[path = "evaluate/teacher_cmd.rs"]
+mod teacher_cmd;
 #[path = "evaluate/tracks_cmd.rs"]
 mod tracks_cmd;
 
@@ -68,6 +70,8 @@ struct Args {
     tracks: tracks_cmd::TrackArgs,
     #[command(flatten)]
     labelled: labelled_cmd::LabelledEvalArgs,
+    #[command(flatten)]
+    teacher: teacher_cmd::TeacherEvalArgs,
     /// Score the detector on photos instead: randomised held-out photos on carpets, on
     /// the rendered pitch and on real backgrounds, and real photographs with and without
     /// balls. Its generated section is marked `<!-- evaluate-photos:begin -->` / `…:end -->`.
@@ -117,6 +121,14 @@ fn run(args: Args) -> anyhow::Result<()> {
             plots: &args.plots,
         };
         return tracks_cmd::run(&args.tracks, &out);
+    }
+    if let (true, Some(dir)) = (args.teacher.teacher, &args.labelled.labelled) {
+        return teacher_cmd::run(
+            dir,
+            args.labelled.labelled_labels.as_deref(),
+            &args.teacher,
+            args.doc.as_deref(),
+        );
     }
     if args.labelled.labelled.is_some() {
         return labelled_cmd::run(&args.labelled, args.doc.as_deref());

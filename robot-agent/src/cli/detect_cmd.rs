@@ -44,6 +44,16 @@ pub struct DetectArgs {
     pub config: Option<PathBuf>,
     #[command(flatten)]
     pub camera: CameraArgs,
+    /// Label the photos with the teacher (a COCO detector that knows balls; slow, for a
+    /// laptop or server) instead of running the robot's detector: with `--write-labels`,
+    /// its balls as label files, the photos it doubted in `doubtful.txt` and a contact
+    /// sheet.
+    #[cfg(feature = "train")]
+    #[arg(long, requires = "write_labels")]
+    pub teacher: bool,
+    #[cfg(feature = "train")]
+    #[command(flatten)]
+    pub teacher_args: crate::cli::teach::TeacherArgs,
 }
 
 /// One photo's line.
@@ -106,6 +116,10 @@ struct Detection {
 }
 
 pub fn run(args: DetectArgs) -> Result<()> {
+    #[cfg(feature = "train")]
+    if args.teacher {
+        return run_teacher(&args);
+    }
     let mut config = crate::runtime::models::load_config(args.config.as_deref())?;
     config.detector = args
         .detector
@@ -193,9 +207,45 @@ pub fn run(args: DetectArgs) -> Result<()> {
     Ok(())
 }
 
+/// `detect --teacher --write-labels FORMAT DIR`: the teacher's labels of every photo, a
+/// JSON line each (to `--out` or stdout).
+#[cfg(feature = "train")]
+fn run_teacher(args: &DetectArgs) -> Result<()> {
+    let [format, dir] = args.write_labels.as_slice() else {
+        bail!("--teacher writes labels: give --write-labels yolo|voc DIR");
+    };
+    let format = LabelFormat::from_str(format, true)
+        .map_err(|_| anyhow::anyhow!("--write-labels {format}: the format is yolo or voc"))?;
+    let how = args.teacher_args.labelling()?;
+    let teacher = args.teacher_args.teacher()?;
+    let files = crate::io::image_io::image_files_recursive(&args.images)?;
+    let dir = PathBuf::from(dir);
+    let labels =
+        crate::cli::teach::label_folder(&args.images, &files, &dir, format, &teacher, &how)?;
+    let mut out: Box<dyn Write> = match &args.out {
+        Some(path) => Box::new(BufWriter::new(
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+        )),
+        None => Box::new(BufWriter::new(std::io::stdout().lock())),
+    };
+    for r in &labels.records {
+        writeln!(out, "{}", serde_json::to_string(r)?)?;
+    }
+    out.flush()?;
+    crate::cli::teach::report(&labels, &dir);
+    if labels.failed > 0 {
+        bail!(
+            "{} of {} photos could not be read",
+            labels.failed,
+            files.len()
+        );
+    }
+    Ok(())
+}
+
 /// A photo's path below the photos' folder, with `/` between folders (its file name when
 /// it is not below it).
-fn relative_name(path: &Path, images: &Path) -> String {
+pub(crate) fn relative_name(path: &Path, images: &Path) -> String {
     match path.strip_prefix(images) {
         Ok(rel) => rel
             .components()

@@ -173,6 +173,20 @@ impl LabelledArgs {
 
 impl LabelledFolder {
     pub fn open(args: &LabelledArgs) -> Result<Self> {
+        Self::open_with(args, true)
+    }
+
+    /// The folder even when none of its photos has a label file (for the teacher to label).
+    pub fn open_unlabelled(args: &LabelledArgs) -> Result<Self> {
+        Self::open_with(args, false)
+    }
+
+    /// Whether no photo has a label file.
+    pub fn unlabelled(&self) -> bool {
+        self.items.iter().all(|i| i.label.is_none())
+    }
+
+    fn open_with(args: &LabelledArgs, need_labels: bool) -> Result<Self> {
         let Some(images) = &args.images else {
             bail!("give the labelled photos as --images DIR [--labels DIR]");
         };
@@ -235,7 +249,7 @@ impl LabelledFolder {
         if items.is_empty() {
             bail!("no PNG or JPEG images in {}", images.display());
         }
-        if labelled == 0 {
+        if labelled == 0 && need_labels {
             bail!(
                 "none of the {} images in {} has a label file (NAME.xml or NAME.txt) in {}",
                 items.len(),

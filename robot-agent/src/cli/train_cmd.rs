@@ -111,6 +111,17 @@ pub struct TrainArgs {
     /// The held-out report as JSON (ball network).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Label the photos with the teacher (a COCO detector that knows balls) and train on
+    /// its labels, even where label files exist. Without label files, this is what
+    /// happens anyway.
+    #[arg(long)]
+    pub teacher: bool,
+    /// Where the teacher's labels go (YOLO files, `doubtful.txt`, `teacher-labels.jsonl`,
+    /// `contact-sheet.png`). Default: beside `--out`, named after it with `.labels`.
+    #[arg(long, value_name = "DIR")]
+    pub teacher_labels: Option<PathBuf>,
+    #[command(flatten)]
+    pub teacher_args: crate::cli::teach::TeacherArgs,
 }
 
 /// Epochs of each stage when fine-tuning a detector.
@@ -154,7 +165,10 @@ impl Split {
         if args.positives.is_some() {
             bail!("the networks train on labelled photos: give --images DIR (or --model hog-svm)");
         }
-        let folder = LabelledFolder::open(&args.labelled)?;
+        let mut folder = LabelledFolder::open_unlabelled(&args.labelled)?;
+        if args.teacher || folder.unlabelled() {
+            folder = teacher_labelled(args, &folder)?;
+        }
         let val_folder = match &args.val {
             Some(dir) => Some(LabelledFolder::open(&LabelledArgs {
                 images: Some(dir.clone()),
@@ -223,6 +237,63 @@ impl Split {
             held_out: described,
         })
     }
+}
+
+/// The folder labelled by the teacher: its labels written beside `--out` (or to
+/// `--teacher-labels`), the folder opened again with them, its doubtful photos left out.
+fn teacher_labelled(args: &TrainArgs, folder: &LabelledFolder) -> Result<LabelledFolder> {
+    let images = args
+        .labelled
+        .images
+        .clone()
+        .context("the teacher labels a folder of photos: give --images DIR")?;
+    let out = args.teacher_labels.clone().unwrap_or_else(|| {
+        let mut dir = args.out.as_os_str().to_owned();
+        dir.push(".labels");
+        PathBuf::from(dir)
+    });
+    if !args.teacher {
+        eprintln!(
+            "{} holds no label files: the teacher labels its photos (into {})",
+            images.display(),
+            out.display()
+        );
+    }
+    let how = args.teacher_args.labelling()?;
+    let teacher = args.teacher_args.teacher()?;
+    let files: Vec<PathBuf> = folder.items.iter().map(|i| i.image.clone()).collect();
+    let labels = crate::cli::teach::label_folder(
+        &images,
+        &files,
+        &out,
+        crate::labels::prelabel::LabelFormat::Yolo,
+        &teacher,
+        &how,
+    )?;
+    crate::cli::teach::report(&labels, &out);
+    let (_, balls, _, _) = labels.counts();
+    if balls == 0 {
+        bail!(
+            "the teacher found no ball it is sure of in the {} photos of {}: label a few \
+             by hand (YOLO or VOC files beside the photos), or lower --teacher-accept \
+             (now {}) and look at {}",
+            labels.records.len(),
+            images.display(),
+            how.accept,
+            out.join("contact-sheet.png").display()
+        );
+    }
+    let doubtful = labels.doubtful();
+    let mut taught = LabelledFolder::open(&LabelledArgs {
+        labels: Some(out),
+        ball_classes: vec![0],
+        ..args.labelled.clone()
+    })?;
+    taught.items.retain(|i| {
+        let name = crate::cli::detect_cmd::relative_name(&i.image, &images);
+        !doubtful.contains(&name)
+    });
+    Ok(taught)
 }
 
 /// The photos to train on and those held out for the score.

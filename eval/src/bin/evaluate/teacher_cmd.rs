@@ -1,0 +1,197 @@
+//! `--labelled DIR --teacher`: the labelling teacher (NanoDet-g, COCO's sports ball) on a
+//! folder of labelled photos, box by box (`eval::teacher_eval`): per event, per set of
+//! passes (the whole photo once; with native and enlarged tiles), its recall by ball width
+//! at the threshold that keeps 95 % and 98 % of its boxes right, and its time per photo.
+//! Its generated section is marked `<!-- evaluate-teacher:begin -->` / `…:end -->`.
+
+use anyhow::{Context, Result};
+use eval::report;
+use eval::teacher_eval::{LabellerReport, PhotoBoxes, score};
+use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
+use robot_agent::labels::BallBox;
+use robot_agent::labels::eval::band_name;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use teacher::{Passes, Teacher};
+
+pub const SECTION_BEGIN: &str = "<!-- evaluate-teacher:begin -->";
+pub const SECTION_END: &str = "<!-- evaluate-teacher:end -->";
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct TeacherEvalArgs {
+    /// With `--labelled`: score the labelling teacher instead of the robot's detectors.
+    #[arg(long, requires = "labelled")]
+    pub teacher: bool,
+    /// With `--teacher`: every Nth photo only (a quick look; 1 is all).
+    #[arg(long, default_value_t = 1, requires = "teacher")]
+    pub every: usize,
+    /// With `--teacher`: the per-photo boxes and the report as JSON.
+    #[arg(long, requires = "teacher")]
+    pub teacher_json: Option<PathBuf>,
+}
+
+fn event(item: &Item) -> String {
+    item.folder.split('/').next().unwrap_or("").to_string()
+}
+
+fn pct(v: f64) -> String {
+    format!("{:.1}", 100.0 * v)
+}
+
+/// The teacher's ball boxes in a photo, as label boxes (pixel centres at integers), and
+/// the time the teacher took, milliseconds.
+fn ball_boxes(
+    teacher: &Teacher,
+    image: &robot_agent::RgbImage,
+    passes: &Passes,
+) -> Result<(Vec<(BallBox, f64)>, f64)> {
+    let started = Instant::now();
+    let found = teacher
+        .detect(image.data(), image.width(), image.height(), passes, 0.05)?
+        .into_iter()
+        .filter(|d| d.class == teacher::SPORTS_BALL)
+        .map(|d| {
+            let [x0, y0, x1, y1] = d.box_px.map(|v| f64::from(v) - 0.5);
+            let b = BallBox {
+                x_min_px: x0,
+                y_min_px: y0,
+                x_max_px: x1,
+                y_max_px: y1,
+            };
+            (b, f64::from(d.score))
+        })
+        .collect();
+    Ok((found, started.elapsed().as_secs_f64() * 1000.0))
+}
+
+fn row(name: &str, passes: &str, r: &LabellerReport, ms: f64) -> String {
+    let at = |p: f64| match r.at_precision(p) {
+        Some(a) => {
+            let bands: Vec<String> = (0..4)
+                .map(|b| {
+                    if r.band_balls[b] == 0 {
+                        "–".to_string()
+                    } else {
+                        pct(a.band_recall[b])
+                    }
+                })
+                .collect();
+            format!(
+                "{} @ {:.2} | {}",
+                pct(a.recall),
+                a.threshold,
+                bands.join(" / ")
+            )
+        }
+        None => "– | –".to_string(),
+    };
+    format!(
+        "| {name} | {passes} | {} | {} | {} | {} | {} | {:.0} |",
+        r.photos,
+        r.balls,
+        pct(r.reach),
+        at(0.95),
+        at(0.98),
+        ms
+    )
+}
+
+pub fn run(
+    dir: &Path,
+    labels: Option<&Path>,
+    args: &TeacherEvalArgs,
+    doc: Option<&Path>,
+) -> Result<()> {
+    let folder = LabelledFolder::open(&LabelledArgs {
+        images: Some(dir.to_path_buf()),
+        labels: labels.map(Path::to_path_buf),
+        ball_classes: Vec::new(),
+        ball_names: Vec::new(),
+        camera: None,
+        calibration: None,
+    })?;
+    let teacher = Teacher::shipped().context("the shipped teacher")?;
+    let items: Vec<&Item> = folder.items.iter().step_by(args.every.max(1)).collect();
+    let mut events: Vec<String> = items.iter().map(|i| event(i)).collect();
+    events.sort();
+    events.dedup();
+    let bands: Vec<String> = (0..4).map(band_name).collect();
+    let mut lines = vec![
+        format!(
+            "| event | passes | photos | balls | reached % | recall % @ threshold, 95 % precision | by width ({}) | recall % @ threshold, 98 % precision | by width | ms a photo |",
+            bands.join(" / ")
+        ),
+        "|---|---|---|---|---|---|---|---|---|---|".to_string(),
+    ];
+    let mut json = Vec::new();
+    for (passes, name) in [
+        (Passes::quick(), "whole photo"),
+        (Passes::labelling(), "whole + tiles + 2× tiles"),
+    ] {
+        let mut all = Vec::new();
+        let mut all_ms = Vec::new();
+        for e in &events {
+            let event_items: Vec<&&Item> = items.iter().filter(|i| &event(i) == e).collect();
+            let mut photos = Vec::new();
+            let mut ms = Vec::new();
+            for (k, item) in event_items.iter().enumerate() {
+                let loaded = robot_agent::load_rgb(&item.image)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|image| {
+                        let balls = folder.labels(item, &image)?.balls;
+                        let (found, t) = ball_boxes(&teacher, &image, &passes)?;
+                        Ok((balls, found, t))
+                    });
+                let (balls, found, t) = match loaded {
+                    Ok(v) => v,
+                    Err(err) => {
+                        eprintln!("{}: left out: {err:#}", item.image.display());
+                        continue;
+                    }
+                };
+                ms.push(t);
+                photos.push(PhotoBoxes { balls, found });
+                if k % 20 == 19 {
+                    eprintln!("{name}: {e}: {} of {} photos", k + 1, event_items.len());
+                }
+            }
+            let r = score(&photos);
+            let median = proto::stats::median(&ms).unwrap_or(0.0);
+            lines.push(row(e, name, &r, median));
+            json.push(
+                serde_json::json!({"event": e, "passes": name, "report": r, "ms_median": median}),
+            );
+            all.extend(photos);
+            all_ms.extend(ms);
+        }
+        let r = score(&all);
+        let median = proto::stats::median(&all_ms).unwrap_or(0.0);
+        lines.push(row("**all**", name, &r, median));
+        json.push(
+            serde_json::json!({"event": "all", "passes": name, "report": r, "ms_median": median}),
+        );
+    }
+    let table = lines.join("\n");
+    println!("{table}");
+    if let Some(path) = &args.teacher_json {
+        std::fs::write(path, serde_json::to_vec_pretty(&json)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = doc {
+        let every = if args.every > 1 {
+            format!(" --every {}", args.every)
+        } else {
+            String::new()
+        };
+        let section = format!(
+            "Produced by `cargo run --release -p eval --bin evaluate -- --labelled {} --teacher{every} --doc {}` \
+             (real photos; the shipped teacher; a box is right when its centre lies in a labelled ball \
+             no better box took; recall per labelled ball; \"reached\": a box of any score on the ball).\n\n{table}",
+            dir.display(),
+            path.display()
+        );
+        report::rewrite_section_between(path, SECTION_BEGIN, SECTION_END, &section)?;
+        eprintln!("updated {}", path.display());
+    }
+    Ok(())
+}

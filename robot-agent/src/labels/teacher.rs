@@ -1,0 +1,242 @@
+//! Labels made by the teacher (the `teacher` crate's COCO detector), for training without
+//! a person: each photo's sports balls split by score into labels, doubts and nothing, and
+//! what the teacher calls something else (a person, a bottle, a clock) kept as named
+//! negatives.
+//!
+//! A photo with a doubt is not a photo without a ball: its doubtful box may be the ball
+//! the teacher half sees. Such photos are left out of training (and listed), not taught as
+//! background. In a recording, frames lend each other labels ([`lend_labels`]): a doubt
+//! where the ball seen before and after should be is a ball; a sure ball far from where
+//! both neighbours put it is a doubt.
+
+use crate::image::RgbImage;
+use crate::labels::BallBox;
+use teacher::{Passes, Teacher, TeacherError};
+
+/// How the teacher's scores become labels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TeacherLabelling {
+    pub passes: Passes,
+    /// A sports ball scoring at least this is labelled a ball.
+    pub accept: f64,
+    /// A sports ball scoring at least this (and less than `accept`) makes the photo
+    /// doubtful; below it, a box is ignored.
+    pub doubt: f64,
+    /// Another class scoring at least this is a named negative.
+    pub negative: f64,
+    /// One ball a photo, as in a match: in a photo with a sure ball, a doubt is taken for
+    /// something else and does not make the photo doubtful (it is kept apart, as
+    /// `beside`). Off for photos that often hold several balls.
+    pub one_ball: bool,
+}
+
+impl Default for TeacherLabelling {
+    /// The thresholds measured on real robot-football photos (docs/accuracy.md, "The
+    /// labelling teacher"): `accept` keeps 98 % of the teacher's boxes right with its
+    /// labelling passes.
+    fn default() -> Self {
+        TeacherLabelling {
+            passes: Passes::labelling(),
+            accept: 0.5,
+            doubt: 0.2,
+            negative: 0.5,
+            one_ball: true,
+        }
+    }
+}
+
+/// One thing the teacher labelled, its box in pixels (pixel centres at integers) and score.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Taught {
+    pub ball_box: BallBox,
+    pub score: f64,
+}
+
+/// The teacher's labels of one photo.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PhotoLabels {
+    pub balls: Vec<Taught>,
+    pub doubts: Vec<Taught>,
+    /// Doubts in a photo with a sure ball, under `one_ball`: taken for something else.
+    pub beside: Vec<Taught>,
+    /// Other classes (COCO names) scoring at least `negative`.
+    pub negatives: Vec<(&'static str, Taught)>,
+}
+
+impl PhotoLabels {
+    /// Whether the photo can be taught as it is: no doubt in it.
+    pub fn certain(&self) -> bool {
+        self.doubts.is_empty()
+    }
+}
+
+/// The teacher's labels of `image`.
+pub fn label_photo(
+    teacher: &Teacher,
+    image: &RgbImage,
+    how: &TeacherLabelling,
+) -> Result<PhotoLabels, TeacherError> {
+    let floor = how.doubt.min(how.negative).min(how.accept) as f32;
+    let found = teacher.detect(
+        image.data(),
+        image.width(),
+        image.height(),
+        &how.passes,
+        floor,
+    )?;
+    let mut out = PhotoLabels::default();
+    for d in found {
+        let [x0, y0, x1, y1] = d.box_px.map(|v| f64::from(v) - 0.5);
+        let taught = Taught {
+            ball_box: BallBox {
+                x_min_px: x0,
+                y_min_px: y0,
+                x_max_px: x1,
+                y_max_px: y1,
+            },
+            score: f64::from(d.score),
+        };
+        if taught.ball_box.width_px() <= 0.0 || taught.ball_box.height_px() <= 0.0 {
+            continue;
+        }
+        if d.class == teacher::SPORTS_BALL {
+            if taught.score >= how.accept {
+                out.balls.push(taught);
+            } else if taught.score >= how.doubt {
+                out.doubts.push(taught);
+            }
+        } else if taught.score >= how.negative {
+            out.negatives.push((d.class_name(), taught));
+        }
+    }
+    if how.one_ball && !out.balls.is_empty() {
+        out.beside = std::mem::take(&mut out.doubts);
+    }
+    Ok(out)
+}
+
+/// How far, in ball widths, a ball may stand from where its neighbours put it.
+const AGREE_WIDTHS: f64 = 1.0;
+
+/// Frames of a recording lending each other labels, `frames` in time order with their
+/// capture times: where the frames on both sides (at most `max_gap` frames away) hold one
+/// ball each, the ball between is expected on the line between them. A doubt there
+/// becomes a ball; a lone sure ball far from it becomes a doubt (one ball per frame, moving
+/// smoothly). Returns how many boxes were promoted and demoted.
+pub fn lend_labels(frames: &mut [(f64, PhotoLabels)], max_gap: usize) -> (usize, usize) {
+    let one_ball: Vec<Option<BallBox>> = frames
+        .iter()
+        .map(|(_, f)| (f.balls.len() == 1 && f.certain()).then(|| f.balls[0].ball_box))
+        .collect();
+    let mut promoted = 0;
+    let mut demoted = 0;
+    for k in 0..frames.len() {
+        let before = (k.saturating_sub(max_gap)..k)
+            .rev()
+            .find_map(|i| one_ball[i].map(|b| (i, b)));
+        let after =
+            (k + 1..(k + 1 + max_gap).min(frames.len())).find_map(|i| one_ball[i].map(|b| (i, b)));
+        let (Some((i, a)), Some((j, b))) = (before, after) else {
+            continue;
+        };
+        let (ti, tj, tk) = (frames[i].0, frames[j].0, frames[k].0);
+        let f = if tj > ti {
+            ((tk - ti) / (tj - ti)).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        let lerp = |p: f64, q: f64| p + (q - p) * f;
+        let expected = BallBox {
+            x_min_px: lerp(a.x_min_px, b.x_min_px),
+            y_min_px: lerp(a.y_min_px, b.y_min_px),
+            x_max_px: lerp(a.x_max_px, b.x_max_px),
+            y_max_px: lerp(a.y_max_px, b.y_max_px),
+        };
+        // The neighbours must agree with each other for the expectation to mean anything.
+        let gap_widths = distance(&a, &b) / expected.width_px().max(1.0);
+        if gap_widths > AGREE_WIDTHS * (j - i) as f64 {
+            continue;
+        }
+        let near = |t: &Taught| {
+            distance(&t.ball_box, &expected) <= AGREE_WIDTHS * expected.width_px().max(1.0)
+        };
+        let labels = &mut frames[k].1;
+        if let Some(pos) = labels.doubts.iter().position(near)
+            && labels.balls.iter().all(|t| !near(t))
+            && labels.doubts.iter().filter(|t| near(t)).count() == 1
+        {
+            let t = labels.doubts.remove(pos);
+            labels.balls.push(t);
+            promoted += 1;
+        }
+        if labels.balls.len() == 1 && !near(&labels.balls[0]) {
+            let t = labels.balls.remove(0);
+            labels.doubts.push(t);
+            demoted += 1;
+        }
+    }
+    (promoted, demoted)
+}
+
+fn distance(a: &BallBox, b: &BallBox) -> f64 {
+    let (p, q) = (a.centre_px(), b.centre_px());
+    (p[0] - q[0]).hypot(p[1] - q[1])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn taught(x: f64, score: f64) -> Taught {
+        Taught {
+            ball_box: BallBox {
+                x_min_px: x,
+                y_min_px: 10.0,
+                x_max_px: x + 10.0,
+                y_max_px: 20.0,
+            },
+            score,
+        }
+    }
+
+    fn frame(t: f64, balls: Vec<Taught>, doubts: Vec<Taught>) -> (f64, PhotoLabels) {
+        (
+            t,
+            PhotoLabels {
+                balls,
+                doubts,
+                ..PhotoLabels::default()
+            },
+        )
+    }
+
+    #[test]
+    fn a_doubt_on_the_balls_path_becomes_a_ball_and_a_jump_a_doubt() {
+        let mut frames = vec![
+            frame(0.0, vec![taught(0.0, 0.9)], vec![]),
+            // Half way along the path: the doubt at 5 is the ball, the one at 200 is not.
+            frame(0.1, vec![], vec![taught(5.0, 0.3), taught(200.0, 0.3)]),
+            frame(0.2, vec![taught(10.0, 0.9)], vec![]),
+            // A sure ball far off the path between its neighbours.
+            frame(0.3, vec![taught(300.0, 0.8)], vec![]),
+            frame(0.4, vec![taught(20.0, 0.9)], vec![]),
+        ];
+        let (promoted, demoted) = lend_labels(&mut frames, 3);
+        assert_eq!((promoted, demoted), (1, 1));
+        assert_eq!(frames[1].1.balls, vec![taught(5.0, 0.3)]);
+        assert_eq!(frames[1].1.doubts, vec![taught(200.0, 0.3)]);
+        assert!(frames[3].1.balls.is_empty());
+        assert!(!frames[3].1.certain());
+    }
+
+    #[test]
+    fn neighbours_that_disagree_lend_nothing() {
+        let mut frames = vec![
+            frame(0.0, vec![taught(0.0, 0.9)], vec![]),
+            frame(0.1, vec![], vec![taught(150.0, 0.3)]),
+            frame(0.2, vec![taught(300.0, 0.9)], vec![]),
+        ];
+        assert_eq!(lend_labels(&mut frames, 3), (0, 0));
+        assert!(frames[1].1.balls.is_empty());
+    }
+}
