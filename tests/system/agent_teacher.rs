@@ -188,3 +188,67 @@ fn a_broken_teacher_or_an_empty_folder_says_so_and_keeps_the_model() {
 fn teacher_bytes() -> Vec<u8> {
     std::fs::read(repo("teacher/data/nanodet-g.safetensors")).unwrap()
 }
+
+#[test]
+fn train_on_a_recording_lends_labels_between_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = dir.path().join("frames.mcap");
+    let out = Command::new(env!("CARGO_BIN_EXE_system-sim-agent"))
+        .args(["run", "--robot-id", "miro1", "--offline", "--fast"])
+        .args([
+            "--scenario",
+            "seed-1-across",
+            "--seed",
+            "2",
+            "--duration-s",
+            "2",
+        ])
+        .args(["--record-frames", mcap.to_str().unwrap()])
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let model = dir.path().join("from-frames.safetensors");
+    // The rendered ball is small for the teacher's quick pass: lower thresholds.
+    let out = agent(&[
+        "train",
+        "--source",
+        &format!("mcap:{}", mcap.display()),
+        "--frame-step",
+        "4",
+        "--teacher-passes",
+        "quick",
+        "--teacher-accept",
+        "0.25",
+        "--teacher-doubt",
+        "0.1",
+        "--hold-out",
+        "none",
+        "--candidate-epochs",
+        "1",
+        "--checker-epochs",
+        "1",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let lent = stderr
+        .lines()
+        .find(|l| l.starts_with("frames lent each other labels: "))
+        .unwrap_or_else(|| panic!("{stderr}"));
+    let promoted: usize = lent["frames lent each other labels: ".len()..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(promoted >= 1, "{lent}");
+    let frames = dir.path().join("from-frames.safetensors.labels/frames");
+    assert!(frames.join("left").is_dir() && frames.join("right").is_dir());
+    assert!(model.is_file());
+}

@@ -221,7 +221,7 @@ fn run_teacher(args: &DetectArgs) -> Result<()> {
     let files = crate::io::image_io::image_files_recursive(&args.images)?;
     let dir = PathBuf::from(dir);
     let labels =
-        crate::cli::teach::label_folder(&args.images, &files, &dir, format, &teacher, &how)?;
+        crate::cli::teach::label_folder(&args.images, &files, &dir, format, &teacher, &how, None)?;
     let mut out: Box<dyn Write> = match &args.out {
         Some(path) => Box::new(BufWriter::new(
             std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,

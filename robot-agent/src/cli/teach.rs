@@ -141,6 +141,27 @@ impl LabelRecord {
         self.balls.iter().map(ball_box).collect()
     }
 
+    /// The record's boxes as labels (named negatives left out).
+    fn labels(&self) -> PhotoLabels {
+        let taught = |v: &[f64; 5]| Taught {
+            ball_box: ball_box(v),
+            score: v[4],
+        };
+        PhotoLabels {
+            balls: self.balls.iter().map(taught).collect(),
+            doubts: self.doubts.iter().map(taught).collect(),
+            beside: self.beside.iter().map(taught).collect(),
+            negatives: Vec::new(),
+        }
+    }
+
+    /// The balls and doubts of `labels` in place of the record's.
+    fn set_labels(&mut self, labels: &PhotoLabels) {
+        self.balls = labels.balls.iter().map(boxed).collect();
+        self.doubts = labels.doubts.iter().map(boxed).collect();
+        self.beside = labels.beside.iter().map(boxed).collect();
+    }
+
     pub fn certain(&self) -> bool {
         self.doubts.is_empty()
     }
@@ -188,7 +209,9 @@ const PROGRESS_EVERY: Duration = Duration::from_secs(10);
 
 /// Labels every photo of `files` (below `images`) with the teacher into `out`: label files
 /// in `format` (one already there is kept), `doubtful.txt`, `teacher-labels.jsonl` and
-/// `contact-sheet.png`.
+/// `contact-sheet.png`. With `lend`, the photos are a recording's frames (a folder per
+/// camera, named by capture time in nanoseconds): neighbours up to `lend` frames away lend
+/// each other labels ([`lend_labels`](crate::labels::teacher::lend_labels)).
 pub fn label_folder(
     images: &Path,
     files: &[PathBuf],
@@ -196,6 +219,7 @@ pub fn label_folder(
     format: LabelFormat,
     teacher: &Teacher,
     how: &TeacherLabelling,
+    lend: Option<usize>,
 ) -> Result<FolderLabels> {
     if files.is_empty() {
         bail!(
@@ -257,9 +281,97 @@ pub fn label_folder(
         }
     }
     bar.finish_and_clear();
+    if let Some(max_gap) = lend {
+        let (promoted, demoted) = lend_between_frames(&mut result.records, max_gap);
+        eprintln!(
+            "frames lent each other labels: {promoted} doubts on the ball's path became \
+             balls, {demoted} balls off it became doubts"
+        );
+    }
     write_outputs(out, format, &result)?;
     contact_sheet(images, &result.records, &out.join("contact-sheet.png"))?;
     Ok(result)
+}
+
+/// [`lend_labels`](crate::labels::teacher::lend_labels) over each camera's frames in time
+/// order (a frame's time from its file name, nanoseconds).
+fn lend_between_frames(records: &mut [LabelRecord], max_gap: usize) -> (usize, usize) {
+    let mut cameras: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for (k, r) in records.iter().enumerate() {
+        let folder = Path::new(&r.photo)
+            .parent()
+            .map(|p| p.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        cameras.entry(folder).or_default().push(k);
+    }
+    let (mut promoted, mut demoted) = (0, 0);
+    for indices in cameras.values() {
+        let mut frames: Vec<(f64, PhotoLabels)> = indices
+            .iter()
+            .map(|&k| (frame_time_s(&records[k].photo), records[k].labels()))
+            .collect();
+        let mut order: Vec<usize> = (0..frames.len()).collect();
+        order.sort_by(|a, b| frames[*a].0.total_cmp(&frames[*b].0));
+        let mut sorted: Vec<(f64, PhotoLabels)> = order
+            .iter()
+            .map(|&i| std::mem::take(&mut frames[i]))
+            .collect();
+        let (p, d) = crate::labels::teacher::lend_labels(&mut sorted, max_gap);
+        promoted += p;
+        demoted += d;
+        for (&i, (_, labels)) in order.iter().zip(sorted) {
+            records[indices[i]].set_labels(&labels);
+        }
+    }
+    (promoted, demoted)
+}
+
+/// A frame's capture time from its file name (`{nanoseconds}.png`), seconds.
+fn frame_time_s(photo: &str) -> f64 {
+    Path::new(photo)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .and_then(|s| s.parse::<u64>().ok())
+        .map_or(0.0, |ns| ns as f64 * 1e-9)
+}
+
+/// Every `every`-th frame of each camera of a recording (MCAP: the agent's own recordings
+/// or a MiRo's ROS bag), written as PNG photos `{left,right}/{capture ns}.png` under `dir`
+/// for the teacher to label. Returns how many.
+pub fn recording_frames(recording: &Path, dir: &Path, every: usize) -> Result<usize> {
+    use crate::runtime::source::FrameSource;
+    let mut source = crate::runtime::source::McapSource::open(
+        recording.to_path_buf(),
+        &crate::runtime::ros_frames::RosTopics::default(),
+    )
+    .with_context(|| format!("reading the recording {}", recording.display()))?;
+    let mut seen: BTreeMap<String, usize> = BTreeMap::new();
+    let mut written = 0;
+    while let Some(frame) = source.next_frame()? {
+        let camera = format!("{:?}", frame.camera).to_lowercase();
+        let n = seen.entry(camera.clone()).or_default();
+        *n += 1;
+        if !(*n - 1).is_multiple_of(every.max(1)) {
+            continue;
+        }
+        let folder = dir.join(&camera);
+        std::fs::create_dir_all(&folder)
+            .with_context(|| format!("creating {}", folder.display()))?;
+        let path = folder.join(format!("{:020}.png", frame.stamp.0));
+        if !path.exists() {
+            let png = crate::io::image_io::encode_png(&frame.image)?;
+            std::fs::write(&path, png).with_context(|| format!("writing {}", path.display()))?;
+        }
+        written += 1;
+    }
+    if written == 0 {
+        bail!(
+            "{} holds no camera frames the agent reads (a ROS recording's camera topics, or \
+             the agent's own recordings)",
+            recording.display()
+        );
+    }
+    Ok(written)
 }
 
 /// The label files, the doubtful list, the records and the contact sheet.

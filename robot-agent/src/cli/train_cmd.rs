@@ -27,7 +27,7 @@ pub enum ModelKind {
     HogSvm,
 }
 
-#[derive(Debug, clap::Args)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct TrainArgs {
     /// The model to train. Default: the two-stage detector from labelled photos, the
     /// HOG + SVM filter from patch folders.
@@ -38,7 +38,7 @@ pub struct TrainArgs {
     #[arg(
         long,
         requires = "negatives",
-        required_unless_present = "images",
+        required_unless_present_any = ["images", "source"],
         conflicts_with = "images"
     )]
     pub positives: Option<PathBuf>,
@@ -122,7 +122,19 @@ pub struct TrainArgs {
     pub teacher_labels: Option<PathBuf>,
     #[command(flatten)]
     pub teacher_args: crate::cli::teach::TeacherArgs,
+    /// Train on a recording's frames instead of photos: `mcap:FILE` (the agent's own
+    /// recordings, or a MiRo's ROS bag in MCAP). The teacher labels them, neighbouring
+    /// frames lending each other labels; the frames are written as photos beside the labels.
+    #[arg(long, value_name = "mcap:FILE", conflicts_with = "images")]
+    pub source: Option<String>,
+    /// With `--source`: every Nth frame of each camera (neighbouring frames are near
+    /// copies of each other).
+    #[arg(long, default_value_t = 1, requires = "source")]
+    pub frame_step: usize,
 }
+
+/// How many frames away a frame's neighbours lend it labels.
+const LEND_MAX_GAP: usize = 3;
 
 /// Epochs of each stage when fine-tuning a detector.
 const FINE_TUNE_CANDIDATE_EPOCHS: usize = 12;
@@ -165,9 +177,36 @@ impl Split {
         if args.positives.is_some() {
             bail!("the networks train on labelled photos: give --images DIR (or --model hog-svm)");
         }
+        if let Some(source) = &args.source {
+            let recording = source
+                .strip_prefix("mcap:")
+                .with_context(|| format!("--source {source}: a recording is mcap:FILE"))?;
+            let frames = labels_dir(args).join("frames");
+            let n = crate::cli::teach::recording_frames(
+                Path::new(recording),
+                &frames,
+                args.frame_step,
+            )?;
+            eprintln!(
+                "{n} frames of {recording} written to {} for the teacher",
+                frames.display()
+            );
+            let args = TrainArgs {
+                labelled: LabelledArgs {
+                    images: Some(frames),
+                    ..args.labelled.clone()
+                },
+                ..args.clone()
+            };
+            let folder = LabelledFolder::open_unlabelled(&args.labelled)?;
+            return Ok(Split {
+                folder: teacher_labelled(&args, &folder, Some(LEND_MAX_GAP))?,
+                val_folder: None,
+            });
+        }
         let mut folder = LabelledFolder::open_unlabelled(&args.labelled)?;
         if args.teacher || folder.unlabelled() {
-            folder = teacher_labelled(args, &folder)?;
+            folder = teacher_labelled(args, &folder, None)?;
         }
         let val_folder = match &args.val {
             Some(dir) => Some(LabelledFolder::open(&LabelledArgs {
@@ -239,19 +278,28 @@ impl Split {
     }
 }
 
+/// Where the teacher's labels go: `--teacher-labels`, or beside `--out` with `.labels`.
+fn labels_dir(args: &TrainArgs) -> PathBuf {
+    args.teacher_labels.clone().unwrap_or_else(|| {
+        let mut dir = args.out.as_os_str().to_owned();
+        dir.push(".labels");
+        PathBuf::from(dir)
+    })
+}
+
 /// The folder labelled by the teacher: its labels written beside `--out` (or to
 /// `--teacher-labels`), the folder opened again with them, its doubtful photos left out.
-fn teacher_labelled(args: &TrainArgs, folder: &LabelledFolder) -> Result<LabelledFolder> {
+fn teacher_labelled(
+    args: &TrainArgs,
+    folder: &LabelledFolder,
+    lend: Option<usize>,
+) -> Result<LabelledFolder> {
     let images = args
         .labelled
         .images
         .clone()
         .context("the teacher labels a folder of photos: give --images DIR")?;
-    let out = args.teacher_labels.clone().unwrap_or_else(|| {
-        let mut dir = args.out.as_os_str().to_owned();
-        dir.push(".labels");
-        PathBuf::from(dir)
-    });
+    let out = labels_dir(args);
     if !args.teacher {
         eprintln!(
             "{} holds no label files: the teacher labels its photos (into {})",
@@ -269,6 +317,7 @@ fn teacher_labelled(args: &TrainArgs, folder: &LabelledFolder) -> Result<Labelle
         crate::labels::prelabel::LabelFormat::Yolo,
         &teacher,
         &how,
+        lend,
     )?;
     crate::cli::teach::report(&labels, &out);
     let (_, balls, _, _) = labels.counts();

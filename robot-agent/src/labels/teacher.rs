@@ -118,11 +118,16 @@ pub fn label_photo(
 /// How far, in ball widths, a ball may stand from where its neighbours put it.
 const AGREE_WIDTHS: f64 = 1.0;
 
+/// How far, in ball widths per frame between them, the neighbours' balls may lie apart
+/// and still be one ball moving (a kicked ball crosses a frame in a few widths a frame).
+const MOVE_WIDTHS_PER_FRAME: f64 = 3.0;
+
 /// Frames of a recording lending each other labels, `frames` in time order with their
 /// capture times: where the frames on both sides (at most `max_gap` frames away) hold one
 /// ball each, the ball between is expected on the line between them. A doubt there
 /// becomes a ball; a lone sure ball far from it becomes a doubt (one ball per frame, moving
-/// smoothly). Returns how many boxes were promoted and demoted.
+/// smoothly). A frame whose doubt became its ball keeps its other doubts apart
+/// (`beside`). Returns how many boxes were promoted and demoted.
 pub fn lend_labels(frames: &mut [(f64, PhotoLabels)], max_gap: usize) -> (usize, usize) {
     let one_ball: Vec<Option<BallBox>> = frames
         .iter()
@@ -154,7 +159,7 @@ pub fn lend_labels(frames: &mut [(f64, PhotoLabels)], max_gap: usize) -> (usize,
         };
         // The neighbours must agree with each other for the expectation to mean anything.
         let gap_widths = distance(&a, &b) / expected.width_px().max(1.0);
-        if gap_widths > AGREE_WIDTHS * (j - i) as f64 {
+        if gap_widths > MOVE_WIDTHS_PER_FRAME * (j - i) as f64 {
             continue;
         }
         let near = |t: &Taught| {
@@ -167,6 +172,8 @@ pub fn lend_labels(frames: &mut [(f64, PhotoLabels)], max_gap: usize) -> (usize,
         {
             let t = labels.doubts.remove(pos);
             labels.balls.push(t);
+            // The frame's one ball is found: its other doubts are something else.
+            labels.beside.append(&mut labels.doubts);
             promoted += 1;
         }
         if labels.balls.len() == 1 && !near(&labels.balls[0]) {
@@ -224,7 +231,8 @@ mod tests {
         let (promoted, demoted) = lend_labels(&mut frames, 3);
         assert_eq!((promoted, demoted), (1, 1));
         assert_eq!(frames[1].1.balls, vec![taught(5.0, 0.3)]);
-        assert_eq!(frames[1].1.doubts, vec![taught(200.0, 0.3)]);
+        assert_eq!(frames[1].1.beside, vec![taught(200.0, 0.3)]);
+        assert!(frames[1].1.certain());
         assert!(frames[3].1.balls.is_empty());
         assert!(!frames[3].1.certain());
     }
