@@ -3,7 +3,7 @@
 //! on a CPU to find balls in photos nobody labelled. It proposes; the project's own
 //! detector, trained on what it proposes, is what the robot runs.
 //!
-//! - [`tfjs`]'s reader and [`Graph`]: the published TF.js model converted, op for op,
+//! - The TF.js reader and [`Graph`]: the published TF.js model converted, op for op,
 //!   into the project's weights file (safetensors: the float16 weights as tensors, the
 //!   graph in the metadata), by `teacher convert` ([`convert`]).
 //! - The forward pass, an interpreter of the graph's ops over candle tensors.
@@ -35,7 +35,7 @@ pub use decode::iou;
 pub use graph::{Graph, GraphError};
 pub use interpret::RunError;
 pub use tfjs::TfjsError;
-pub use tiles::{Passes, Window, windows};
+pub use tiles::Passes;
 
 use candle_core::{Device, Tensor};
 use std::collections::BTreeMap;

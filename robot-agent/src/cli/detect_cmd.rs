@@ -220,8 +220,13 @@ fn run_teacher(args: &DetectArgs) -> Result<()> {
     let teacher = args.teacher_args.teacher()?;
     let files = crate::io::image_io::image_files_recursive(&args.images)?;
     let dir = PathBuf::from(dir);
+    let output = crate::cli::teach::LabelOutput {
+        format,
+        keep_existing: true,
+        lend: None,
+    };
     let labels =
-        crate::cli::teach::label_folder(&args.images, &files, &dir, format, &teacher, &how, None)?;
+        crate::cli::teach::label_folder(&args.images, &files, &dir, output, &teacher, &how)?;
     let mut out: Box<dyn Write> = match &args.out {
         Some(path) => Box::new(BufWriter::new(
             std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,

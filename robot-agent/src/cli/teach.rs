@@ -207,19 +207,28 @@ impl FolderLabels {
 /// How long between progress lines on stderr (for logs, where no bar is drawn).
 const PROGRESS_EVERY: Duration = Duration::from_secs(10);
 
-/// Labels every photo of `files` (below `images`) with the teacher into `out`: label files
-/// in `format` (one already there is kept), `doubtful.txt`, `teacher-labels.jsonl` and
-/// `contact-sheet.png`. With `lend`, the photos are a recording's frames (a folder per
-/// camera, named by capture time in nanoseconds): neighbours up to `lend` frames away lend
-/// each other labels ([`lend_labels`](crate::labels::teacher::lend_labels)).
+/// How a folder's labels are written.
+#[derive(Debug, Clone, Copy)]
+pub struct LabelOutput {
+    pub format: LabelFormat,
+    /// Keep a label file already there (a person may have corrected it) instead of
+    /// writing the teacher's over it.
+    pub keep_existing: bool,
+    /// The photos are a recording's frames (a folder per camera, named by capture time in
+    /// nanoseconds): neighbours up to this many frames away lend each other labels
+    /// ([`lend_labels`](crate::labels::teacher::lend_labels)).
+    pub lend: Option<usize>,
+}
+
+/// Labels every photo of `files` (below `images`) with the teacher into `out`: label files,
+/// `doubtful.txt`, `teacher-labels.jsonl` and `contact-sheet.png`.
 pub fn label_folder(
     images: &Path,
     files: &[PathBuf],
     out: &Path,
-    format: LabelFormat,
+    output: LabelOutput,
     teacher: &Teacher,
     how: &TeacherLabelling,
-    lend: Option<usize>,
 ) -> Result<FolderLabels> {
     if files.is_empty() {
         bail!(
@@ -281,14 +290,14 @@ pub fn label_folder(
         }
     }
     bar.finish_and_clear();
-    if let Some(max_gap) = lend {
+    if let Some(max_gap) = output.lend {
         let (promoted, demoted) = lend_between_frames(&mut result.records, max_gap);
         eprintln!(
             "frames lent each other labels: {promoted} doubts on the ball's path became \
              balls, {demoted} balls off it became doubts"
         );
     }
-    write_outputs(out, format, &result)?;
+    write_outputs(out, output, &result)?;
     contact_sheet(images, &result.records, &out.join("contact-sheet.png"))?;
     Ok(result)
 }
@@ -375,14 +384,15 @@ pub fn recording_frames(recording: &Path, dir: &Path, every: usize) -> Result<us
 }
 
 /// The label files, the doubtful list, the records and the contact sheet.
-fn write_outputs(out: &Path, format: LabelFormat, labels: &FolderLabels) -> Result<()> {
+fn write_outputs(out: &Path, output: LabelOutput, labels: &FolderLabels) -> Result<()> {
+    let format = output.format;
     let mut jsonl = String::new();
     for r in &labels.records {
         jsonl += &serde_json::to_string(r)?;
         jsonl.push('\n');
         let rel = Path::new(&r.photo).with_extension(format.extension());
         let path = out.join(&rel);
-        if path.exists() {
+        if output.keep_existing && path.exists() {
             continue;
         }
         if let Some(parent) = path.parent() {

@@ -310,15 +310,12 @@ fn teacher_labelled(
     let how = args.teacher_args.labelling()?;
     let teacher = args.teacher_args.teacher()?;
     let files: Vec<PathBuf> = folder.items.iter().map(|i| i.image.clone()).collect();
-    let labels = crate::cli::teach::label_folder(
-        &images,
-        &files,
-        &out,
-        crate::labels::prelabel::LabelFormat::Yolo,
-        &teacher,
-        &how,
+    let output = crate::cli::teach::LabelOutput {
+        format: crate::labels::prelabel::LabelFormat::Yolo,
+        keep_existing: false,
         lend,
-    )?;
+    };
+    let labels = crate::cli::teach::label_folder(&images, &files, &out, output, &teacher, &how)?;
     crate::cli::teach::report(&labels, &out);
     let (_, balls, _, _) = labels.counts();
     if balls == 0 {
