@@ -45,9 +45,45 @@ const OPS: &[&str] = &[
     "SparseToDense",
 ];
 
+/// A float tensor as it lies in memory, with the order of its axes: the graph's tensor is
+/// `data.permute(perm)` (its axis `i` is the data's axis `perm[i]`).
+#[derive(Debug, Clone)]
+struct Laid {
+    data: Tensor,
+    perm: Vec<usize>,
+}
+
+impl Laid {
+    fn plain(data: Tensor) -> Self {
+        let perm = (0..data.rank()).collect();
+        Laid { data, perm }
+    }
+
+    fn is_plain(&self) -> bool {
+        self.perm.iter().enumerate().all(|(i, p)| i == *p)
+    }
+
+    /// The graph's tensor (a view when the order differs).
+    fn logical(&self) -> Result<Tensor, candle_core::Error> {
+        if self.is_plain() {
+            Ok(self.data.clone())
+        } else {
+            self.data.permute(self.perm.clone())
+        }
+    }
+
+    /// The same axis order over other data of the same layout.
+    fn with(&self, data: Tensor) -> Self {
+        Laid {
+            data,
+            perm: self.perm.clone(),
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 enum Value {
-    Float(Tensor),
+    Float(Laid),
     Int { shape: Vec<usize>, values: Vec<i64> },
 }
 
@@ -95,7 +131,7 @@ impl Program {
             let t = Tensor::from_raw_buffer(&c.f16_le, DType::F16, &c.shape, &device)?
                 .to_dtype(DType::F32)?;
             const_index.insert(name.clone(), consts.len());
-            consts.push(Value::Float(t));
+            consts.push(Value::Float(Laid::plain(t)));
         }
         for (name, c) in &graph.ints {
             const_index.insert(name.clone(), consts.len());
@@ -153,7 +189,7 @@ impl Program {
                 .ok_or_else(|| node_err(node, "reads a value made by no node"))?;
             let filter = match (node.op.as_str(), inputs.get(1)) {
                 ("Conv2D", Some(Source::Const(c))) => match &consts[*c] {
-                    Value::Float(hwio) if hwio.rank() == 4 => {
+                    Value::Float(Laid { data: hwio, .. }) if hwio.rank() == 4 => {
                         let (kh, kw, cin, cout) = hwio.dims4()?;
                         Some(Filter {
                             kh,
@@ -220,7 +256,7 @@ impl Program {
         self.outputs
             .iter()
             .map(|s| match self.value(s, &values)? {
-                Value::Float(t) => Ok(t.clone()),
+                Value::Float(t) => Ok(t.logical()?),
                 Value::Int { .. } => Err(RunError::Node {
                     node: "(outputs)".into(),
                     why: "an output is an integer tensor".into(),
@@ -261,7 +297,7 @@ fn source(
     consts.get(base).map(|c| Source::Const(*c))
 }
 
-fn float<'a>(node: &Node, v: &'a Value) -> Result<&'a Tensor, RunError> {
+fn float<'a>(node: &Node, v: &'a Value) -> Result<&'a Laid, RunError> {
     match v {
         Value::Float(t) => Ok(t),
         Value::Int { .. } => Err(node_err(node, "expected a float tensor, got integers")),
@@ -310,22 +346,33 @@ fn axis(node: &Node, v: i64, rank: usize) -> Result<usize, RunError> {
 
 fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunError> {
     let node = &step.node;
-    let x = || -> Result<&Tensor, RunError> { float(node, arg(node, args, 0)?) };
-    let one = |t: Tensor| Ok(vec![Value::Float(t)]);
+    let x = || -> Result<&Laid, RunError> { float(node, arg(node, args, 0)?) };
+    let one = |t: Laid| Ok(vec![Value::Float(t)]);
+    let plain = |t: Tensor| Ok(vec![Value::Float(Laid::plain(t))]);
     match node.op.as_str() {
-        "Placeholder" => one(input.clone()),
+        "Placeholder" => plain(input.clone()),
         "Identity" => Ok(vec![arg(node, args, 0)?.clone()]),
         "Transpose" => {
+            let t = x()?;
             let perm: Vec<usize> = ints(node, arg(node, args, 1)?)?
                 .iter()
                 .map(|p| usize_of(node, *p))
                 .collect::<Result<_, _>>()?;
-            one(x()?.permute(perm)?)
+            if perm.len() != t.perm.len() || perm.iter().any(|p| *p >= t.perm.len()) {
+                return Err(node_err(node, "the permutation does not fit the tensor"));
+            }
+            // Axis i of the result is axis perm[i] of the input: no data moves.
+            let perm = perm.iter().map(|p| t.perm[*p]).collect();
+            one(Laid {
+                data: t.data.clone(),
+                perm,
+            })
         }
         "Pad" | "PadV2" => {
             let pads = ints(node, arg(node, args, 1)?)?;
             let value = if node.op == "PadV2" {
                 float(node, arg(node, args, 2)?)?
+                    .data
                     .flatten_all()?
                     .to_vec1::<f32>()?
                     .first()
@@ -334,7 +381,17 @@ fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunE
             } else {
                 0.0
             };
-            one(pad(node, x()?, pads, value)?)
+            let t = x()?;
+            if pads.len() != 2 * t.perm.len() {
+                return Err(node_err(node, "paddings do not match the tensor's rank"));
+            }
+            // The graph's axis l lies as the data's axis perm[l].
+            let mut physical = vec![0i64; pads.len()];
+            for (l, p) in t.perm.iter().enumerate() {
+                physical[2 * p] = pads[2 * l];
+                physical[2 * p + 1] = pads[2 * l + 1];
+            }
+            one(t.with(pad(node, &t.data, &physical, value)?))
         }
         "Conv2D" => {
             let filter = step
@@ -354,10 +411,24 @@ fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunE
                     "only NHWC convolutions with explicit padding, square strides and no dilation run",
                 ));
             }
-            one(conv_nhwc(x()?, filter, usize_of(node, strides[1])?)?)
+            plain(conv_nhwc(
+                &x()?.logical()?,
+                filter,
+                usize_of(node, strides[1])?,
+            )?)
         }
         "Add" | "AddV2" => match (arg(node, args, 0)?, arg(node, args, 1)?) {
-            (Value::Float(a), Value::Float(b)) => one(a.broadcast_add(b)?),
+            (Value::Float(a), Value::Float(b)) => {
+                let rank = a.perm.len();
+                if a.perm == b.perm && a.data.dims() == b.data.dims() {
+                    one(a.with((&a.data + &b.data)?))
+                } else if b.perm.len() == 1 && a.perm.last() == Some(&(rank - 1)) {
+                    // A bias over the last axis, which lies last in memory too.
+                    one(a.with(a.data.broadcast_add(&b.data)?))
+                } else {
+                    plain(a.logical()?.broadcast_add(&b.logical()?)?)
+                }
+            }
             (
                 Value::Int {
                     shape: sa,
@@ -384,9 +455,8 @@ fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunE
                 Some(Attr::Float(a)) => *a,
                 _ => 0.2,
             };
-            // Made contiguous first: the op after a transpose is one pass over memory.
-            let t = x()?.contiguous()?;
-            one(t.maximum(&(&t * alpha)?)?)
+            let t = x()?;
+            one(t.with(t.data.maximum(&(&t.data * alpha)?)?))
         }
         "MaxPool" => {
             let k = attr_ints(node, "ksize")?;
@@ -397,24 +467,49 @@ fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunE
                     "only NHWC pooling with explicit padding runs",
                 ));
             }
-            let nchw = x()?.permute((0, 3, 1, 2))?.contiguous()?;
+            // Candle pools NCHW: an NHWC tensor lying as NCHW is pooled where it lies.
+            const NCHW_AS_NHWC: [usize; 4] = [0, 2, 3, 1];
+            let t = x()?;
+            let nchw = if t.perm == NCHW_AS_NHWC {
+                t.data.clone()
+            } else {
+                t.logical()?.permute((0, 3, 1, 2))?.contiguous()?
+            };
             let out = nchw.max_pool2d_with_stride(
                 (usize_of(node, k[1])?, usize_of(node, k[2])?),
                 (usize_of(node, s[1])?, usize_of(node, s[2])?),
             )?;
-            one(out.permute((0, 2, 3, 1))?)
+            one(Laid {
+                data: out,
+                perm: NCHW_AS_NHWC.to_vec(),
+            })
         }
         "ConcatV2" => {
             let (last, parts) = args
                 .split_last()
                 .ok_or_else(|| node_err(node, "concatenates nothing"))?;
-            let parts: Vec<&Tensor> = parts
+            let parts: Vec<&Laid> = parts
                 .iter()
                 .map(|v| float(node, v))
                 .collect::<Result<_, _>>()?;
-            let rank = parts.first().map(|t| t.rank()).unwrap_or(0);
-            let a = axis(node, ints(node, last)?.first().copied().unwrap_or(0), rank)?;
-            one(Tensor::cat(&parts, a)?)
+            let first = parts
+                .first()
+                .ok_or_else(|| node_err(node, "concatenates nothing"))?;
+            let a = axis(
+                node,
+                ints(node, last)?.first().copied().unwrap_or(0),
+                first.perm.len(),
+            )?;
+            if parts.iter().all(|p| p.perm == first.perm) {
+                let data: Vec<&Tensor> = parts.iter().map(|p| &p.data).collect();
+                one(first.with(Tensor::cat(&data, first.perm[a])?))
+            } else {
+                let logical: Vec<Tensor> = parts
+                    .iter()
+                    .map(|p| p.logical())
+                    .collect::<Result<_, _>>()?;
+                plain(Tensor::cat(&logical, a)?)
+            }
         }
         "ResizeBilinear" => {
             let size = ints(node, arg(node, args, 1)?)?;
@@ -426,8 +521,8 @@ fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunE
             if align || !half_pixel {
                 return Err(node_err(node, "only half-pixel-centred resizing runs"));
             }
-            one(resize_bilinear(
-                x()?,
+            plain(resize_bilinear(
+                &x()?.logical()?,
                 usize_of(node, size[0])?,
                 usize_of(node, size[1])?,
             )?)
@@ -441,27 +536,28 @@ fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunE
                     .first()
                     .copied()
                     .unwrap_or(0),
-                t.rank(),
+                t.perm.len(),
             )?;
+            let physical = t.perm[a];
             let mut start = 0;
             let mut out = Vec::new();
             for s in sizes {
                 let len = if *s < 0 {
-                    t.dim(a)? - start
+                    t.data.dim(physical)? - start
                 } else {
                     usize_of(node, *s)?
                 };
-                out.push(Value::Float(t.narrow(a, start, len)?));
+                out.push(Value::Float(t.with(t.data.narrow(physical, start, len)?)));
                 start += len;
             }
             Ok(out)
         }
         "Sigmoid" => {
             let t = x()?;
-            one(((t.neg()?.exp()? + 1.0)?).recip()?)
+            one(t.with(((t.data.neg()?.exp()? + 1.0)?).recip()?))
         }
         "Reshape" => {
-            let t = x()?;
+            let t = x()?.logical()?;
             let want = ints(node, arg(node, args, 1)?)?;
             let known: usize = want
                 .iter()
@@ -478,7 +574,7 @@ fn eval(step: &Step, args: &[&Value], input: &Tensor) -> Result<Vec<Value>, RunE
                     }
                 })
                 .collect();
-            one(t.reshape(shape)?)
+            plain(t.reshape(shape)?)
         }
         "SparseToDense" => {
             // The graph's sparse tensors are all empty (shape arithmetic left over from
