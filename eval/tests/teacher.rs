@@ -26,7 +26,10 @@ fn the_teacher_is_scored_on_real_photos_into_its_section() {
     assert!(text.contains("hand-written text"));
     assert!(text.contains("<!-- evaluate-teacher:begin -->"), "{text}");
     assert!(text.contains("| **all** | whole photo | 4 |"), "{text}");
-    assert!(text.contains("| **all** | whole + tiles + 2× tiles | 4 |"), "{text}");
+    assert!(
+        text.contains("| **all** | whole + tiles + 2× tiles | 4 |"),
+        "{text}"
+    );
     let rows: Vec<Value> =
         serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("parses");
     let reach = |passes: &str| {
@@ -38,5 +41,8 @@ fn the_teacher_is_scored_on_real_photos_into_its_section() {
     let (whole, tiles) = (reach("whole photo"), reach("whole + tiles + 2× tiles"));
     // The photos' balls are mostly 10-20 px: the tiles reach more of them than the
     // whole photo shrunk to 416 px does.
-    assert!(tiles > whole && tiles >= 0.5, "whole {whole}, tiles {tiles}");
+    assert!(
+        tiles > whole && tiles >= 0.5,
+        "whole {whole}, tiles {tiles}"
+    );
 }
