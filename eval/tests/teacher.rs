@@ -1,6 +1,7 @@
 //! `evaluate --labelled DIR --teacher` end to end, on real onboard photos of the repo
 //! (`tests/data/msl-balls`): both pass sets are scored and written into a report's
-//! section, and the labelling passes reach balls the whole-photo pass is blind to.
+//! section with its plot, and the labelling passes reach balls the whole-photo pass is
+//! blind to.
 
 use serde_json::Value;
 use std::path::Path;
@@ -18,10 +19,13 @@ fn the_teacher_is_scored_on_real_photos_into_its_section() {
         .args(["--teacher", "--every", "3"])
         .args(["--teacher-json", json.to_str().expect("utf-8")])
         .args(["--doc", doc.to_str().expect("utf-8")])
+        .args(["--plots", dir.path().to_str().expect("utf-8")])
         .output()
         .expect("evaluate runs");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
+    let plot = std::fs::read(dir.path().join("teacher-pr.png")).expect("the plot");
+    assert_eq!(&plot[1..4], b"PNG");
     let text = std::fs::read_to_string(&doc).expect("doc");
     assert!(text.contains("hand-written text"));
     assert!(text.contains("<!-- evaluate-teacher:begin -->"), "{text}");

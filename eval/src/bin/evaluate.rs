@@ -128,6 +128,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             args.labelled.labelled_labels.as_deref(),
             &args.teacher,
             args.doc.as_deref(),
+            &args.plots,
         );
     }
     if args.labelled.labelled.is_some() {

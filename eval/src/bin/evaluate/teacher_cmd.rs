@@ -5,6 +5,7 @@
 //! Its generated section is marked `<!-- evaluate-teacher:begin -->` / `…:end -->`.
 
 use anyhow::{Context, Result};
+use eval::plot::{Chart, PALETTE, Series, Style};
 use eval::report;
 use eval::teacher_eval::{LabellerReport, PhotoBoxes, score};
 use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
@@ -101,6 +102,7 @@ pub fn run(
     labels: Option<&Path>,
     args: &TeacherEvalArgs,
     doc: Option<&Path>,
+    plots: &Path,
 ) -> Result<()> {
     let folder = LabelledFolder::open(&LabelledArgs {
         images: Some(dir.to_path_buf()),
@@ -124,6 +126,7 @@ pub fn run(
         "|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
     let mut json = Vec::new();
+    let mut overall: Vec<(&str, LabellerReport)> = Vec::new();
     for (passes, name) in [
         (Passes::quick(), "whole photo"),
         (Passes::labelling(), "whole + tiles + 2× tiles"),
@@ -167,12 +170,16 @@ pub fn run(
         let r = score(&all);
         let median = proto::stats::median(&all_ms).unwrap_or(0.0);
         lines.push(row("**all**", name, &r, median));
+        overall.push((name, r.clone()));
         json.push(
             serde_json::json!({"event": "all", "passes": name, "report": r, "ms_median": median}),
         );
     }
     let table = lines.join("\n");
     println!("{table}");
+    let plot = plots.join("teacher-pr.png");
+    eval::plot::write_png(&pr_chart(&overall), &plot)?;
+    eprintln!("wrote {}", plot.display());
     if let Some(path) = &args.teacher_json {
         std::fs::write(path, serde_json::to_vec_pretty(&json)?)
             .with_context(|| format!("writing {}", path.display()))?;
@@ -184,14 +191,46 @@ pub fn run(
             String::new()
         };
         let section = format!(
-            "Produced by `cargo run --release -p eval --bin evaluate -- --labelled {} --teacher{every} --doc {}` \
+            "Produced by `cargo run --release -p eval --bin evaluate -- --labelled {} --teacher{every} --doc {} --plots {}` \
              (real photos; the shipped teacher; a box is right when its centre lies in a labelled ball \
              no better box took; recall per labelled ball; \"reached\": a box of any score on the ball).\n\n{table}",
             dir.display(),
-            path.display()
+            path.display(),
+            plots.display()
         );
         report::rewrite_section_between(path, SECTION_BEGIN, SECTION_END, &section)?;
         eprintln!("updated {}", path.display());
     }
     Ok(())
+}
+
+/// Box precision against ball recall as the threshold falls, per pass set, with the
+/// 10–20 px balls' recall beside (the size most robot-football balls are seen at).
+fn pr_chart(reports: &[(&str, LabellerReport)]) -> Chart {
+    let mut chart = Chart::new(
+        "The teacher's sports-ball boxes on real onboard photos",
+        "recall (labelled balls found)",
+        "precision (boxes on a ball)",
+    );
+    chart.x_range = Some((0.0, 1.0));
+    chart.y_range = Some((0.0, 1.0));
+    for (k, (name, r)) in reports.iter().enumerate() {
+        let color = PALETTE[k % PALETTE.len()];
+        let all: Vec<(f64, f64)> = r.curve.iter().map(|a| (a.recall, a.precision)).collect();
+        let small: Vec<(f64, f64)> = r
+            .curve
+            .iter()
+            .map(|a| (a.band_recall[1], a.precision))
+            .collect();
+        chart
+            .series
+            .push(Series::new(*name, color, Style::Line, all));
+        chart.series.push(Series::new(
+            format!("{name}: 10–20 px balls"),
+            color,
+            Style::Dashed,
+            small,
+        ));
+    }
+    chart
 }
