@@ -42,12 +42,9 @@ fn unlabelled_photos(dir: &Path) -> PathBuf {
     photos
 }
 
-#[test]
-fn the_teacher_labels_real_photos_for_a_labelling_tool() {
-    let dir = tempfile::tempdir().unwrap();
-    let photos = unlabelled_photos(dir.path());
-    let labels = dir.path().join("labels");
-    let out = agent(&[
+/// `detect --teacher` (its quick pass) on `photos`, YOLO labels into `labels`.
+fn teacher_labels(photos: &Path, labels: &Path) -> Output {
+    agent(&[
         "detect",
         "--images",
         photos.to_str().unwrap(),
@@ -57,7 +54,15 @@ fn the_teacher_labels_real_photos_for_a_labelling_tool() {
         "--write-labels",
         "yolo",
         labels.to_str().unwrap(),
-    ]);
+    ])
+}
+
+#[test]
+fn the_teacher_labels_real_photos_for_a_labelling_tool() {
+    let dir = tempfile::tempdir().unwrap();
+    let photos = unlabelled_photos(dir.path());
+    let labels = dir.path().join("labels");
+    let out = teacher_labels(&photos, &labels);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(stderr.contains("the teacher labelled 3 photos"), "{stderr}");
@@ -95,17 +100,7 @@ fn the_teacher_labels_real_photos_for_a_labelling_tool() {
     let sheet = std::fs::read(labels.join("contact-sheet.png")).unwrap();
     assert_eq!(&sheet[1..4], b"PNG");
     // A second run reuses the teacher's labels instead of asking it again.
-    let again = agent(&[
-        "detect",
-        "--images",
-        photos.to_str().unwrap(),
-        "--teacher",
-        "--teacher-passes",
-        "quick",
-        "--write-labels",
-        "yolo",
-        labels.to_str().unwrap(),
-    ]);
+    let again = teacher_labels(&photos, &labels);
     let stderr = String::from_utf8_lossy(&again.stderr);
     assert!(stderr.contains("(3 from an earlier run)"), "{stderr}");
 }
