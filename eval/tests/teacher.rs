@@ -30,6 +30,7 @@ fn the_teacher_is_scored_on_real_photos_into_its_section() {
     assert!(text.contains("hand-written text"));
     assert!(text.contains("<!-- evaluate-teacher:begin -->"), "{text}");
     assert!(text.contains("| **all** | whole photo | 4 |"), "{text}");
+    assert!(text.contains("at the labelling threshold 0.55"), "{text}");
     assert!(
         text.contains("| **all** | whole + tiles + 2× tiles | 4 |"),
         "{text}"

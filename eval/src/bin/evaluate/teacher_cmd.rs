@@ -7,10 +7,11 @@
 use anyhow::{Context, Result};
 use eval::plot::{Chart, PALETTE, Series, Style};
 use eval::report;
-use eval::teacher_eval::{LabellerReport, PhotoBoxes, score};
+use eval::teacher_eval::{AtThreshold, LabellerReport, PhotoBoxes, score};
 use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
 use robot_agent::labels::BallBox;
 use robot_agent::labels::eval::band_name;
+use robot_agent::labels::teacher::TeacherLabelling;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use teacher::{Passes, Teacher};
@@ -66,28 +67,29 @@ fn ball_boxes(
 }
 
 fn row(name: &str, passes: &str, r: &LabellerReport, ms: f64) -> String {
+    let bands_of = |a: &AtThreshold| -> String {
+        let bands: Vec<String> = (0..4)
+            .map(|b| {
+                if r.band_balls[b] == 0 {
+                    "–".to_string()
+                } else {
+                    pct(a.band_recall[b])
+                }
+            })
+            .collect();
+        bands.join(" / ")
+    };
+    // The labelling threshold `train` and `detect --teacher` use.
+    let accept = TeacherLabelling::default().accept;
+    let labelling = r.at_threshold(accept).map_or("– | – | –".to_string(), |a| {
+        format!("{} | {} | {}", pct(a.recall), pct(a.precision), bands_of(a))
+    });
     let at = |p: f64| match r.at_precision(p) {
-        Some(a) => {
-            let bands: Vec<String> = (0..4)
-                .map(|b| {
-                    if r.band_balls[b] == 0 {
-                        "–".to_string()
-                    } else {
-                        pct(a.band_recall[b])
-                    }
-                })
-                .collect();
-            format!(
-                "{} @ {:.2} | {}",
-                pct(a.recall),
-                a.threshold,
-                bands.join(" / ")
-            )
-        }
+        Some(a) => format!("{} @ {:.2} | {}", pct(a.recall), a.threshold, bands_of(a)),
         None => "– | –".to_string(),
     };
     format!(
-        "| {name} | {passes} | {} | {} | {} | {} | {} | {:.0} |",
+        "| {name} | {passes} | {} | {} | {} | {labelling} | {} | {} | {:.0} |",
         r.photos,
         r.balls,
         pct(r.reach),
@@ -120,10 +122,11 @@ pub fn run(
     let bands: Vec<String> = (0..4).map(band_name).collect();
     let mut lines = vec![
         format!(
-            "| event | passes | photos | balls | reached % | recall % @ threshold, 95 % precision | by width ({}) | recall % @ threshold, 98 % precision | by width | ms a photo |",
-            bands.join(" / ")
+            "| event | passes | photos | balls | reached % | recall % at the labelling threshold {accept} | precision % there | by width ({bands}) | recall % @ threshold, 95 % precision | by width | recall % @ threshold, 98 % precision | by width | ms a photo |",
+            accept = TeacherLabelling::default().accept,
+            bands = bands.join(" / ")
         ),
-        "|---|---|---|---|---|---|---|---|---|---|".to_string(),
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
     let mut json = Vec::new();
     let mut overall: Vec<(&str, LabellerReport)> = Vec::new();
