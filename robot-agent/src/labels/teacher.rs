@@ -31,11 +31,11 @@ pub struct TeacherLabelling {
 }
 
 impl Default for TeacherLabelling {
-    /// The thresholds measured on real robot-football photos (docs/accuracy.md, "The
-    /// labelling teacher"): with its labelling passes, 93 % of the boxes scoring 0.55 or
-    /// more are balls; below 0.05 the teacher still reaches most balls, so a photo with
-    /// anything between is doubtful rather than empty (a ball the teacher half sees must
-    /// not be taught as background).
+    /// The thresholds chosen from the teacher's curve on real robot-football photos
+    /// (docs/accuracy.md, "The labelling teacher on real photos"): near 0.55 its boxes
+    /// are mostly balls; down to 0.05 it still reaches balls, so a photo with anything
+    /// between is doubtful rather than empty (a ball the teacher half sees must not be
+    /// taught as background).
     fn default() -> Self {
         TeacherLabelling {
             passes: Passes::labelling(),
