@@ -120,22 +120,11 @@ pub fn sample(
         let i = (y * w + x) * 3;
         [rgb[i] as f32, rgb[i + 1] as f32, rgb[i + 2] as f32]
     };
-    for oy in 0..input {
-        let sy = win.y0 + (oy as f32 + 0.5) / win.scale - 0.5;
-        if sy < -0.5 || sy > h as f32 - 0.5 {
-            continue;
-        }
-        let sy = sy.clamp(0.0, (h - 1) as f32);
-        let (y0, fy) = (sy.floor() as usize, sy - sy.floor());
-        let y1 = (y0 + 1).min(h - 1);
-        for ox in 0..input {
-            let sx = win.x0 + (ox as f32 + 0.5) / win.scale - 0.5;
-            if sx < -0.5 || sx > w as f32 - 0.5 {
-                continue;
-            }
-            let sx = sx.clamp(0.0, (w - 1) as f32);
-            let (x0, fx) = (sx.floor() as usize, sx - sx.floor());
-            let x1 = (x0 + 1).min(w - 1);
+    let xs = taps(win.x0, win.scale, input, w);
+    for (oy, ty) in taps(win.y0, win.scale, input, h).into_iter().enumerate() {
+        let Some((y0, y1, fy)) = ty else { continue };
+        for (ox, tx) in xs.iter().enumerate() {
+            let Some((x0, x1, fx)) = *tx else { continue };
             let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
             let mut px = [0u8; 3];
             for k in 0..3 {
@@ -147,6 +136,22 @@ pub fn sample(
         }
     }
     out
+}
+
+/// Along one axis, each input pixel's two photo pixels and the weight of the second
+/// (`None` outside the photo): pixel centres aligned, `origin` the window's start.
+fn taps(origin: f32, scale: f32, input: usize, len: usize) -> Vec<Option<(usize, usize, f32)>> {
+    (0..input)
+        .map(|o| {
+            let s = origin + (o as f32 + 0.5) / scale - 0.5;
+            if s < -0.5 || s > len as f32 - 0.5 {
+                return None;
+            }
+            let s = s.clamp(0.0, (len - 1) as f32);
+            let lower = s.floor() as usize;
+            Some((lower, (lower + 1).min(len - 1), s - s.floor()))
+        })
+        .collect()
 }
 
 /// A box in the window's input pixels, in photo pixels; `None` when a tile's box touches

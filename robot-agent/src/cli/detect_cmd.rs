@@ -152,12 +152,7 @@ pub fn run(args: DetectArgs) -> Result<()> {
     if let Some(dir) = &args.overlays {
         prepare_overlays(dir, &args.images)?;
     }
-    let mut out: Box<dyn Write> = match &args.out {
-        Some(path) => Box::new(BufWriter::new(
-            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-        )),
-        None => Box::new(BufWriter::new(std::io::stdout().lock())),
-    };
+    let mut out = lines_out(args.out.as_deref())?;
     let (mut failed, mut with_ball) = (0usize, 0usize);
     let mut last_progress = Instant::now();
     for (k, path) in files.iter().enumerate() {
@@ -227,12 +222,7 @@ fn run_teacher(args: &DetectArgs) -> Result<()> {
     };
     let labels =
         crate::cli::teach::label_folder(&args.images, &files, &dir, output, &teacher, &how)?;
-    let mut out: Box<dyn Write> = match &args.out {
-        Some(path) => Box::new(BufWriter::new(
-            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-        )),
-        None => Box::new(BufWriter::new(std::io::stdout().lock())),
-    };
+    let mut out = lines_out(args.out.as_deref())?;
     for r in &labels.records {
         writeln!(out, "{}", serde_json::to_string(r)?)?;
     }
@@ -246,6 +236,16 @@ fn run_teacher(args: &DetectArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Where the JSON lines go: the file named, or stdout.
+fn lines_out(path: Option<&Path>) -> Result<Box<dyn Write>> {
+    Ok(match path {
+        Some(path) => Box::new(BufWriter::new(
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+        )),
+        None => Box::new(BufWriter::new(std::io::stdout().lock())),
+    })
 }
 
 /// A photo's path below the photos' folder, with `/` between folders (its file name when

@@ -18,6 +18,16 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use teacher::{Passes, Teacher};
 
+/// `--teacher-passes`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PassesArg {
+    /// The whole photo, tiles at its own resolution and tiles enlarged twice: small balls
+    /// too.
+    Labelling,
+    /// The whole photo once: large balls only.
+    Quick,
+}
+
 /// The teacher's flags.
 #[derive(Debug, Clone, clap::Args)]
 pub struct TeacherArgs {
@@ -31,10 +41,9 @@ pub struct TeacherArgs {
     /// makes its photo doubtful (left out of training, listed for a person).
     #[arg(long, default_value_t = TeacherLabelling::default().doubt)]
     pub teacher_doubt: f64,
-    /// `labelling` (the whole photo, tiles at its own resolution and tiles enlarged twice:
-    /// small balls too) or `quick` (the whole photo once: large balls only).
-    #[arg(long, default_value = "labelling", value_parser = ["labelling", "quick"])]
-    pub teacher_passes: String,
+    /// Where the teacher looks in a photo.
+    #[arg(long, value_enum, default_value_t = PassesArg::Labelling)]
+    pub teacher_passes: PassesArg,
     /// Photos may hold several balls: a doubt beside a sure ball makes the photo doubtful
     /// too (by default, one ball a photo, such a doubt is taken for something else).
     #[arg(long)]
@@ -43,9 +52,9 @@ pub struct TeacherArgs {
 
 impl TeacherArgs {
     pub fn labelling(&self) -> Result<TeacherLabelling> {
-        let passes = match self.teacher_passes.as_str() {
-            "quick" => Passes::quick(),
-            _ => Passes::labelling(),
+        let passes = match self.teacher_passes {
+            PassesArg::Quick => Passes::quick(),
+            PassesArg::Labelling => Passes::labelling(),
         };
         let (accept, doubt) = (self.teacher_accept, self.teacher_doubt);
         if !(0.0..=1.0).contains(&accept) || !(0.0..=accept).contains(&doubt) {
@@ -409,9 +418,9 @@ fn write_outputs(out: &Path, output: LabelOutput, labels: &FolderLabels) -> Resu
         )
         .with_context(|| format!("writing {}", path.display()))?;
     }
-    write_whole(&out.join("teacher-labels.jsonl"), jsonl.as_bytes())?;
+    crate::cli::train_cmd::write_file(&out.join("teacher-labels.jsonl"), jsonl.as_bytes())?;
     let doubtful: String = labels.doubtful().into_iter().map(|n| n + "\n").collect();
-    write_whole(&out.join("doubtful.txt"), doubtful.as_bytes())?;
+    crate::cli::train_cmd::write_file(&out.join("doubtful.txt"), doubtful.as_bytes())?;
     if format == LabelFormat::Yolo {
         let classes = out.join("classes.txt");
         if !classes.exists() {
@@ -420,12 +429,6 @@ fn write_outputs(out: &Path, output: LabelOutput, labels: &FolderLabels) -> Resu
         }
     }
     Ok(())
-}
-
-fn write_whole(path: &Path, bytes: &[u8]) -> Result<()> {
-    let partial = path.with_extension("partial");
-    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
-    std::fs::rename(&partial, path).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Photos on the contact sheet, and its columns and thumbnail side.
@@ -490,7 +493,7 @@ pub fn contact_sheet(images: &Path, records: &[LabelRecord], path: &Path) -> Res
         }
     }
     let png = crate::io::image_io::encode_png(&sheet)?;
-    write_whole(path, &png)
+    crate::cli::train_cmd::write_file(path, &png)
 }
 
 /// Up to `n` of `items`, evenly spread.

@@ -142,7 +142,7 @@ const FINE_TUNE_CHECKER_EPOCHS: usize = 8;
 
 /// Writes a file whole or not at all: to a temporary file beside it, then renamed over
 /// it, so a model already there is replaced only by a complete one.
-fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)?;
     }

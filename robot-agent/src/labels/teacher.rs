@@ -72,6 +72,21 @@ impl PhotoLabels {
     }
 }
 
+/// A teacher's detection as a label box (the teacher's pixel edges sit half a pixel from
+/// the labels', whose pixel centres are at integers) with its score.
+pub fn taught(d: &teacher::Detection) -> Taught {
+    let [x0, y0, x1, y1] = d.box_px.map(|v| f64::from(v) - 0.5);
+    Taught {
+        ball_box: BallBox {
+            x_min_px: x0,
+            y_min_px: y0,
+            x_max_px: x1,
+            y_max_px: y1,
+        },
+        score: f64::from(d.score),
+    }
+}
+
 /// The teacher's labels of `image`.
 pub fn label_photo(
     teacher: &Teacher,
@@ -88,16 +103,7 @@ pub fn label_photo(
     )?;
     let mut out = PhotoLabels::default();
     for d in found {
-        let [x0, y0, x1, y1] = d.box_px.map(|v| f64::from(v) - 0.5);
-        let taught = Taught {
-            ball_box: BallBox {
-                x_min_px: x0,
-                y_min_px: y0,
-                x_max_px: x1,
-                y_max_px: y1,
-            },
-            score: f64::from(d.score),
-        };
+        let taught = taught(&d);
         if taught.ball_box.width_px() <= 0.0 || taught.ball_box.height_px() <= 0.0 {
             continue;
         }

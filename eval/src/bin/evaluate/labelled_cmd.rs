@@ -32,7 +32,8 @@ pub struct LabelledEvalArgs {
     pub hold_out: Vec<String>,
 }
 
-fn event(item: &Item) -> String {
+/// A photo's event: its top-level subfolder.
+pub fn event(item: &Item) -> String {
     item.folder.split('/').next().unwrap_or("").to_string()
 }
 

@@ -4,6 +4,7 @@
 //! at the threshold that keeps 95 % and 98 % of its boxes right, and its time per photo.
 //! Its generated section is marked `<!-- evaluate-teacher:begin -->` / `…:end -->`.
 
+use crate::labelled_cmd::event;
 use anyhow::{Context, Result};
 use eval::plot::{Chart, PALETTE, Series, Style};
 use eval::report;
@@ -11,7 +12,7 @@ use eval::teacher_eval::{AtThreshold, LabellerReport, PhotoBoxes, score};
 use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
 use robot_agent::labels::BallBox;
 use robot_agent::labels::eval::band_name;
-use robot_agent::labels::teacher::TeacherLabelling;
+use robot_agent::labels::teacher::{TeacherLabelling, taught};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use teacher::{Passes, Teacher};
@@ -27,21 +28,18 @@ pub struct TeacherEvalArgs {
     /// With `--teacher`: every Nth photo only (a quick look; 1 is all).
     #[arg(long, default_value_t = 1, requires = "teacher")]
     pub every: usize,
-    /// With `--teacher`: the per-photo boxes and the report as JSON.
+    /// With `--teacher`: the reports (each event's and pass set's scores at every
+    /// threshold) as JSON.
     #[arg(long, requires = "teacher")]
     pub teacher_json: Option<PathBuf>,
-}
-
-fn event(item: &Item) -> String {
-    item.folder.split('/').next().unwrap_or("").to_string()
 }
 
 fn pct(v: f64) -> String {
     format!("{:.1}", 100.0 * v)
 }
 
-/// The teacher's ball boxes in a photo, as label boxes (pixel centres at integers), and
-/// the time the teacher took, milliseconds.
+/// The teacher's ball boxes in a photo, as label boxes, and the time the teacher took,
+/// milliseconds.
 fn ball_boxes(
     teacher: &Teacher,
     image: &robot_agent::RgbImage,
@@ -50,20 +48,31 @@ fn ball_boxes(
     let started = Instant::now();
     let found = teacher
         .detect(image.data(), image.width(), image.height(), passes, 0.05)?
-        .into_iter()
+        .iter()
         .filter(|d| d.class == teacher::SPORTS_BALL)
         .map(|d| {
-            let [x0, y0, x1, y1] = d.box_px.map(|v| f64::from(v) - 0.5);
-            let b = BallBox {
-                x_min_px: x0,
-                y_min_px: y0,
-                x_max_px: x1,
-                y_max_px: y1,
-            };
-            (b, f64::from(d.score))
+            let t = taught(d);
+            (t.ball_box, t.score)
         })
         .collect();
     Ok((found, started.elapsed().as_secs_f64() * 1000.0))
+}
+
+/// One photo scored: its event, labelled balls, and per pass set the teacher's ball boxes
+/// and time.
+struct Scored {
+    event: String,
+    balls: Vec<BallBox>,
+    found: Vec<Vec<(BallBox, f64)>>,
+    ms: Vec<f64>,
+}
+
+/// The pass sets compared, with their names in the table.
+fn pass_sets() -> [(Passes, &'static str); 2] {
+    [
+        (Passes::quick(), "whole photo"),
+        (Passes::labelling(), "whole + tiles + 2× tiles"),
+    ]
 }
 
 fn row(name: &str, passes: &str, r: &LabellerReport, ms: f64) -> String {
@@ -128,55 +137,62 @@ pub fn run(
         ),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
+    // Each photo read once and seen through every pass set.
+    let sets = pass_sets();
+    let mut scored = Vec::new();
+    for (k, item) in items.iter().enumerate() {
+        let loaded = robot_agent::load_rgb(&item.image)
+            .map_err(anyhow::Error::from)
+            .and_then(|image| {
+                let balls = folder.labels(item, &image)?.balls;
+                let (mut found, mut ms) = (Vec::new(), Vec::new());
+                for (passes, _) in &sets {
+                    let (f, t) = ball_boxes(&teacher, &image, passes)?;
+                    found.push(f);
+                    ms.push(t);
+                }
+                Ok(Scored {
+                    event: event(item),
+                    balls,
+                    found,
+                    ms,
+                })
+            });
+        match loaded {
+            Ok(s) => scored.push(s),
+            Err(err) => eprintln!("{}: left out: {err:#}", item.image.display()),
+        }
+        if k % 20 == 19 {
+            eprintln!("teacher: {} of {} photos", k + 1, items.len());
+        }
+    }
     let mut json = Vec::new();
     let mut overall: Vec<(&str, LabellerReport)> = Vec::new();
-    for (passes, name) in [
-        (Passes::quick(), "whole photo"),
-        (Passes::labelling(), "whole + tiles + 2× tiles"),
-    ] {
-        let mut all = Vec::new();
-        let mut all_ms = Vec::new();
+    for (p, (_, name)) in sets.iter().enumerate() {
+        let report_of = |rows: Vec<&Scored>| {
+            let photos: Vec<PhotoBoxes> = rows
+                .iter()
+                .map(|s| PhotoBoxes {
+                    balls: s.balls.clone(),
+                    found: s.found[p].clone(),
+                })
+                .collect();
+            let ms: Vec<f64> = rows.iter().map(|s| s.ms[p]).collect();
+            (score(&photos), proto::stats::median(&ms).unwrap_or(0.0))
+        };
         for e in &events {
-            let event_items: Vec<&&Item> = items.iter().filter(|i| &event(i) == e).collect();
-            let mut photos = Vec::new();
-            let mut ms = Vec::new();
-            for (k, item) in event_items.iter().enumerate() {
-                let loaded = robot_agent::load_rgb(&item.image)
-                    .map_err(anyhow::Error::from)
-                    .and_then(|image| {
-                        let balls = folder.labels(item, &image)?.balls;
-                        let (found, t) = ball_boxes(&teacher, &image, &passes)?;
-                        Ok((balls, found, t))
-                    });
-                let (balls, found, t) = match loaded {
-                    Ok(v) => v,
-                    Err(err) => {
-                        eprintln!("{}: left out: {err:#}", item.image.display());
-                        continue;
-                    }
-                };
-                ms.push(t);
-                photos.push(PhotoBoxes { balls, found });
-                if k % 20 == 19 {
-                    eprintln!("{name}: {e}: {} of {} photos", k + 1, event_items.len());
-                }
-            }
-            let r = score(&photos);
-            let median = proto::stats::median(&ms).unwrap_or(0.0);
+            let (r, median) = report_of(scored.iter().filter(|s| &s.event == e).collect());
             lines.push(row(e, name, &r, median));
             json.push(
                 serde_json::json!({"event": e, "passes": name, "report": r, "ms_median": median}),
             );
-            all.extend(photos);
-            all_ms.extend(ms);
         }
-        let r = score(&all);
-        let median = proto::stats::median(&all_ms).unwrap_or(0.0);
+        let (r, median) = report_of(scored.iter().collect());
         lines.push(row("**all**", name, &r, median));
-        overall.push((name, r.clone()));
         json.push(
             serde_json::json!({"event": "all", "passes": name, "report": r, "ms_median": median}),
         );
+        overall.push((name, r));
     }
     let table = lines.join("\n");
     println!("{table}");
