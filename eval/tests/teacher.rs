@@ -1,7 +1,7 @@
 //! `evaluate --labelled DIR --teacher` end to end, on real onboard photos of the repo
 //! (`tests/data/msl-balls`): both pass sets are scored and written into a report's
 //! section with its plot, and the labelling passes reach balls the whole-photo pass is
-//! blind to.
+//! blind to; the robot's shipped detector is scored beside it.
 
 use serde_json::Value;
 use std::path::Path;
@@ -16,7 +16,7 @@ fn the_teacher_is_scored_on_real_photos_into_its_section() {
     let photos = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/msl-balls");
     let out = Command::new(env!("CARGO_BIN_EXE_evaluate"))
         .args(["--labelled", photos.to_str().expect("utf-8")])
-        .args(["--teacher", "--every", "3"])
+        .args(["--teacher", "--every", "3", "--beside", "shipped"])
         .args(["--teacher-json", json.to_str().expect("utf-8")])
         .args(["--doc", doc.to_str().expect("utf-8")])
         .args(["--plots", dir.path().to_str().expect("utf-8")])
@@ -44,6 +44,9 @@ fn the_teacher_is_scored_on_real_photos_into_its_section() {
             .expect("an all row")
     };
     let (whole, tiles) = (reach("whole photo"), reach("whole + tiles + 2× tiles"));
+    // The robot's shipped detector is scored beside the teacher, on the same photos.
+    assert!(text.contains("| **all** | robot: shipped | 4 |"), "{text}");
+    assert!(reach("robot: shipped") > 0.0);
     // The photos' balls are mostly 10-20 px: the tiles reach more of them than the
     // whole photo shrunk to 416 px does.
     assert!(

@@ -122,6 +122,8 @@ fn train_on_photos_nobody_labelled_asks_the_teacher() {
         "1",
         "--checker-epochs",
         "1",
+        "--student-rounds",
+        "1",
         "--out",
         model.to_str().unwrap(),
     ]);
@@ -131,12 +133,65 @@ fn train_on_photos_nobody_labelled_asks_the_teacher() {
         stderr.contains("holds no label files: the teacher labels"),
         "{stderr}"
     );
+    // The student trained on the teacher's labels had its word on them before the last
+    // training.
+    assert!(
+        stderr.contains("student round 1 of 1")
+            && stderr.contains("the student settled the teacher's labels"),
+        "{stderr}"
+    );
     let labels = dir.path().join("ours.safetensors.labels");
     assert!(labels.join("teacher-labels.jsonl").is_file(), "{stderr}");
     assert!(labels.join("contact-sheet.png").is_file());
     // The file is a detector the commands take.
     let net = robot_agent::load_candidate_net(Some(&model)).unwrap();
     assert!(net.is_some(), "not a detector file");
+}
+
+#[test]
+fn the_ball_network_learns_from_the_teacher_and_labelled_photos_beside() {
+    let dir = tempfile::tempdir().unwrap();
+    let photos = unlabelled_photos(dir.path());
+    let model = dir.path().join("net.safetensors");
+    let also = repo("tests/data/real-balls");
+    let train = |model_kind: &str| {
+        agent(&[
+            "train",
+            "--model",
+            model_kind,
+            "--images",
+            photos.to_str().unwrap(),
+            "--teacher-passes",
+            "quick",
+            "--also",
+            also.to_str().unwrap(),
+            "--hold-out",
+            "none",
+            "--epochs",
+            "1",
+            "--student-rounds",
+            "1",
+            "--out",
+            model.to_str().unwrap(),
+        ])
+    };
+    // Labelled photos beside train the ball network only.
+    let refused = train("detector");
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        stderr.contains("--also trains the ball network"),
+        "{stderr}"
+    );
+    let out = train("cnn");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    // The real-balls folder (images/ and labels/ inside) joined the teacher's photos.
+    assert!(stderr.contains("more training photos: "), "{stderr}");
+    assert!(stderr.contains("student round 1 of 1"), "{stderr}");
+    assert!(dir.path().join("net.round1.safetensors").is_file());
+    let net = robot_agent::BallNet::from_safetensors(&std::fs::read(&model).unwrap());
+    assert!(net.is_ok(), "not a ball network");
 }
 
 #[test]
@@ -221,6 +276,8 @@ fn train_on_a_recording_lends_labels_between_frames() {
         "0.25",
         "--teacher-doubt",
         "0.1",
+        "--student-rounds",
+        "0",
         "--hold-out",
         "none",
         "--candidate-epochs",

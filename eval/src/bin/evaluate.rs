@@ -126,6 +126,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         return teacher_cmd::run(
             dir,
             args.labelled.labelled_labels.as_deref(),
+            &args.labelled.beside,
             &args.teacher,
             args.doc.as_deref(),
             &args.plots,

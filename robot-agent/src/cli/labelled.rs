@@ -137,6 +137,9 @@ pub struct LabelledFolder {
     /// `None` when no YOLO ball class is known (an error only if a YOLO file is met).
     yolo: Option<BallClassIds>,
     pub camera: CameraChoice,
+    /// Boxes known to hold no ball, by image path (what the teacher calls something
+    /// else), taught as background beside the labels' balls.
+    pub not_balls: std::collections::BTreeMap<PathBuf, Vec<crate::labels::BallBox>>,
 }
 
 /// The names list of a YOLO data set: `classes.txt` or `data.yaml` in `dir` or its parent.
@@ -273,6 +276,7 @@ impl LabelledFolder {
             ball_names,
             yolo,
             camera: CameraChoice::from_args(args)?,
+            not_balls: Default::default(),
         })
     }
 

@@ -44,7 +44,12 @@ pub fn collect_samples(
         match loaded {
             Ok((labels, image)) => {
                 let mut rng = Rng::stream(seed, "ballnet-samples", k as u64);
-                let (s, c) = photo_samples(&image, &labels.balls, &[], cfg, &mut rng);
+                let not_balls = folder
+                    .not_balls
+                    .get(&item.image)
+                    .map(|boxes| boxes.iter().map(box_circle).collect::<Vec<_>>())
+                    .unwrap_or_default();
+                let (s, c) = photo_samples(&image, &labels.balls, &not_balls, cfg, &mut rng);
                 samples.extend(s);
                 counts += c;
             }
@@ -69,6 +74,15 @@ pub fn collect_samples(
     Ok((samples, counts))
 }
 
+/// The circle inscribed in a box.
+pub fn box_circle(b: &crate::labels::BallBox) -> crate::detection::hough::Circle {
+    crate::detection::hough::Circle {
+        center_px: b.centre_px(),
+        radius_px: 0.25 * (b.width_px() + b.height_px()),
+        score: 1.0,
+    }
+}
+
 /// The detector the network is made for: appearance proposals only, other settings as
 /// given.
 pub fn net_detector(base: &DetectorConfig) -> Result<Detector> {
@@ -87,16 +101,25 @@ pub struct NetTraining {
     pub held_out: Option<LabelReport>,
 }
 
-/// Trains the network on the photos of `train`, scoring it on the photos of `val`.
+/// Trains the network on the photos of `train` (each folder's items), scoring it on the
+/// photos of `val`.
 pub fn train_on_photos(
-    folder: &LabelledFolder,
-    train: &[&Item],
+    train: &[(&LabelledFolder, Vec<&Item>)],
     val: (&LabelledFolder, &[&Item]),
     cfg: &NetTrainConfig,
     samples: &SampleConfig,
     metadata: BTreeMap<String, String>,
 ) -> Result<NetTraining> {
-    let (train_samples, _) = collect_samples(folder, train, samples, cfg.seed, "training photos")?;
+    let mut train_samples = Vec::new();
+    for (k, (folder, items)) in train.iter().enumerate() {
+        let what = if k == 0 {
+            "training photos"
+        } else {
+            "more training photos"
+        };
+        let seed = cfg.seed + 1000 * k as u64;
+        train_samples.extend(collect_samples(folder, items, samples, seed, what)?.0);
+    }
     let (val_samples, _) = if val.1.is_empty() {
         (Vec::new(), SampleCounts::default())
     } else {
@@ -114,13 +137,18 @@ pub fn train_on_photos(
                 bar.set_position(done as u64);
             }
             Progress::Epoch(r) => bar.suspend(|| {
+                let held_out = if r.val_loss.is_finite() {
+                    format!(
+                        ", held-out loss {:.4}, held-out sample accuracy {:.2} %",
+                        r.val_loss,
+                        100.0 * r.val_accuracy
+                    )
+                } else {
+                    String::new()
+                };
                 eprintln!(
-                    "epoch {:>3}: training loss {:.4}, held-out loss {:.4}, held-out sample \
-                 accuracy {:.2} %",
-                    r.epoch,
-                    r.train_loss,
-                    r.val_loss,
-                    100.0 * r.val_accuracy
+                    "epoch {:>3}: training loss {:.4}{held_out}",
+                    r.epoch, r.train_loss
                 )
             }),
         },

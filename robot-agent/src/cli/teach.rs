@@ -10,7 +10,9 @@ use crate::cli::progress::bar;
 use crate::image::RgbImage;
 use crate::labels::BallBox;
 use crate::labels::prelabel::LabelFormat;
-use crate::labels::teacher::{PhotoLabels, Taught, TeacherLabelling, label_photo};
+use crate::labels::teacher::{
+    Agreement, PhotoLabels, Settled, Taught, TeacherLabelling, label_photo, settle,
+};
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
@@ -150,6 +152,16 @@ impl LabelRecord {
         self.balls.iter().map(ball_box).collect()
     }
 
+    /// What the teacher took for something else: the doubts beside a sure ball and its
+    /// named negatives.
+    pub fn not_balls(&self) -> Vec<BallBox> {
+        self.beside
+            .iter()
+            .chain(self.negatives.iter().map(|(_, v)| v))
+            .map(ball_box)
+            .collect()
+    }
+
     /// The record's boxes as labels (named negatives left out).
     fn labels(&self) -> PhotoLabels {
         let taught = |v: &[f64; 5]| Taught {
@@ -173,6 +185,24 @@ impl LabelRecord {
 
     pub fn certain(&self) -> bool {
         self.doubts.is_empty()
+    }
+
+    /// The sports balls split again by their scores, as [`label_photo`] splits them.
+    fn resplit(&mut self, how: &TeacherLabelling) {
+        let mut all: Vec<[f64; 5]> = std::mem::take(&mut self.balls);
+        all.append(&mut self.doubts);
+        all.append(&mut self.beside);
+        all.sort_by(|a, b| b[4].total_cmp(&a[4]));
+        for v in all {
+            if v[4] >= how.accept {
+                self.balls.push(v);
+            } else if v[4] >= how.doubt {
+                self.doubts.push(v);
+            }
+        }
+        if how.one_ball && !self.balls.is_empty() {
+            self.beside = std::mem::take(&mut self.doubts);
+        }
     }
 }
 
@@ -266,7 +296,10 @@ pub fn label_folder(
     let mut fresh = 0usize;
     for (k, path) in files.iter().enumerate() {
         let name = crate::cli::detect_cmd::relative_name(path, images);
-        if let Some(r) = known.remove(&name) {
+        if let Some(mut r) = known.remove(&name) {
+            // As the teacher gave them, whatever a student or a recording's frames made
+            // of them in the run that wrote them.
+            r.resplit(how);
             result.records.push(r);
             result.reused += 1;
         } else {
@@ -309,6 +342,38 @@ pub fn label_folder(
     write_outputs(out, output, &result)?;
     contact_sheet(images, &result.records, &out.join("contact-sheet.png"))?;
     Ok(result)
+}
+
+/// The student's word on every photo's labels ([`settle`]): `judge` is its probability
+/// that a circle in a photo holds a ball. The photos are read again from `images`; a
+/// photo that cannot be read keeps its labels. Returns what changed.
+pub fn settle_folder(
+    images: &Path,
+    labels: &mut FolderLabels,
+    how: &Agreement,
+    judge: impl Fn(&RgbImage, &crate::detection::hough::Circle) -> Option<f64>,
+) -> Settled {
+    let mut total = Settled::default();
+    let bar = bar(
+        labels.records.len(),
+        "the student judges the teacher's labels",
+    );
+    for r in &mut labels.records {
+        bar.inc(1);
+        if r.balls.is_empty() && r.doubts.is_empty() {
+            continue;
+        }
+        let Ok(image) = crate::io::image_io::load_rgb(&images.join(&r.photo)) else {
+            continue;
+        };
+        let mut photo = r.labels();
+        total += settle(&mut photo, how, |b| {
+            judge(&image, &crate::cli::net_train::box_circle(b))
+        });
+        r.set_labels(&photo);
+    }
+    bar.finish_and_clear();
+    total
 }
 
 /// [`lend_labels`](crate::labels::teacher::lend_labels) over each camera's frames in time
@@ -393,7 +458,7 @@ pub fn recording_frames(recording: &Path, dir: &Path, every: usize) -> Result<us
 }
 
 /// The label files, the doubtful list, the records and the contact sheet.
-fn write_outputs(out: &Path, output: LabelOutput, labels: &FolderLabels) -> Result<()> {
+pub fn write_outputs(out: &Path, output: LabelOutput, labels: &FolderLabels) -> Result<()> {
     let format = output.format;
     let mut jsonl = String::new();
     for r in &labels.records {
@@ -542,4 +607,32 @@ pub fn report(labels: &FolderLabels, out: &Path) {
         labels.failed,
         out.display()
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_reused_record_is_split_again_as_the_teacher_gave_it() {
+        let how = TeacherLabelling::default();
+        let b = |x: f64, score: f64| [x, 0.0, x + 10.0, 10.0, score];
+        // A student made a ball of the doubt at 0.3 and a doubt of the sure ball at 0.8.
+        let mut r = LabelRecord {
+            photo: "a.png".into(),
+            width_px: 100,
+            height_px: 100,
+            balls: vec![b(0.0, 0.3)],
+            doubts: vec![b(50.0, 0.8)],
+            beside: vec![b(80.0, 0.02)],
+            negatives: Vec::new(),
+            settings: settings_key(&how),
+        };
+        r.resplit(&how);
+        assert_eq!(r.balls, vec![b(50.0, 0.8)]);
+        // One ball a photo: the doubt beside the sure ball is something else; what is
+        // below the doubt threshold is dropped.
+        assert_eq!(r.beside, vec![b(0.0, 0.3)]);
+        assert!(r.certain());
+    }
 }

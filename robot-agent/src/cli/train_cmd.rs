@@ -127,6 +127,17 @@ pub struct TrainArgs {
     /// frames lending each other labels; the frames are written as photos beside the labels.
     #[arg(long, value_name = "mcap:FILE", conflicts_with = "images")]
     pub source: Option<String>,
+    /// More labelled photos the ball network trains on as they are, beside `--images`
+    /// (randomised photos of other ball designs, another team's labelled set): never held
+    /// out, never labelled by the teacher. A folder with `images/` and `labels/` inside
+    /// is read as YOLO's layout (repeatable).
+    #[arg(long, value_name = "DIR")]
+    pub also: Vec<PathBuf>,
+    /// Rounds in which the network trained on the teacher's labels (the student) settles
+    /// the teacher's doubts before the last training: a doubt the student is sure of
+    /// becomes the photo's ball, a sure ball it calls background a doubt.
+    #[arg(long, default_value_t = 3)]
+    pub student_rounds: usize,
     /// With `--source`: every Nth frame of each camera (neighbouring frames are near
     /// copies of each other).
     #[arg(long, default_value_t = 1, requires = "source")]
@@ -170,6 +181,17 @@ pub fn run(args: TrainArgs) -> Result<()> {
 struct Split {
     folder: LabelledFolder,
     val_folder: Option<LabelledFolder>,
+    /// The teacher's labels of `folder`, when the teacher made them.
+    taught: Option<TeacherTaught>,
+    /// `--also`'s folders, trained on as they are.
+    also: Vec<LabelledFolder>,
+}
+
+/// The teacher's labels of the training photos, and the photos as opened.
+struct TeacherTaught {
+    labels: crate::cli::teach::FolderLabels,
+    /// `--images` (a recording's frames for `--source`).
+    labelled: LabelledArgs,
 }
 
 impl Split {
@@ -177,6 +199,8 @@ impl Split {
         if args.positives.is_some() {
             bail!("the networks train on labelled photos: give --images DIR (or --model hog-svm)");
         }
+        // Checked before the teacher's long labelling.
+        let also = also_folders(args)?;
         if let Some(source) = &args.source {
             let recording = source
                 .strip_prefix("mcap:")
@@ -199,14 +223,26 @@ impl Split {
                 ..args.clone()
             };
             let folder = LabelledFolder::open_unlabelled(&args.labelled)?;
+            let (folder, labels) = teacher_labelled(&args, &folder, Some(LEND_MAX_GAP))?;
             return Ok(Split {
-                folder: teacher_labelled(&args, &folder, Some(LEND_MAX_GAP))?,
+                folder,
                 val_folder: None,
+                taught: Some(TeacherTaught {
+                    labels,
+                    labelled: args.labelled.clone(),
+                }),
+                also,
             });
         }
         let mut folder = LabelledFolder::open_unlabelled(&args.labelled)?;
+        let mut taught = None;
         if args.teacher || folder.unlabelled() {
-            folder = teacher_labelled(args, &folder, None)?;
+            let (f, labels) = teacher_labelled(args, &folder, None)?;
+            folder = f;
+            taught = Some(TeacherTaught {
+                labels,
+                labelled: args.labelled.clone(),
+            });
         }
         let val_folder = match &args.val {
             Some(dir) => Some(LabelledFolder::open(&LabelledArgs {
@@ -216,7 +252,54 @@ impl Split {
             })?),
             None => None,
         };
-        Ok(Split { folder, val_folder })
+        Ok(Split {
+            folder,
+            val_folder,
+            taught,
+            also,
+        })
+    }
+
+    /// How many rounds the student settles the teacher's labels before the last
+    /// training (none without the teacher's labels).
+    fn student_rounds(&self, args: &TrainArgs) -> usize {
+        if self.taught.is_some() {
+            args.student_rounds
+        } else {
+            0
+        }
+    }
+
+    /// One round of agreement: the student (`judge`, trained on the teacher's labels)
+    /// settles the teacher's doubts and unseats the sure balls it calls background; the
+    /// labels are written again and the folder opened with them.
+    fn settle(
+        &mut self,
+        args: &TrainArgs,
+        judge: impl Fn(&crate::image::RgbImage, &crate::detection::hough::Circle) -> Option<f64>,
+    ) -> Result<()> {
+        let Some(TeacherTaught { labels, labelled }) = self.taught.as_mut() else {
+            return Ok(());
+        };
+        let images = teacher_images(labelled)?;
+        let how = crate::labels::teacher::Agreement {
+            one_ball: !args.teacher_args.teacher_several_balls,
+            ..Default::default()
+        };
+        let before = labels.counts();
+        let settled = crate::cli::teach::settle_folder(&images, labels, &how, judge);
+        let after = labels.counts();
+        eprintln!(
+            "the student settled the teacher's labels: doubts made balls: {}, sure balls made \
+             doubts: {}; now {} balls in {} photos, {} photos doubtful (were {} balls, {} \
+             doubtful)",
+            settled.promoted, settled.demoted, after.1, after.0, after.2, before.1, before.2
+        );
+        let out = labels_dir(args);
+        crate::cli::teach::write_outputs(&out, teacher_output(args), labels)?;
+        crate::cli::teach::contact_sheet(&images, &labels.records, &out.join("contact-sheet.png"))?;
+        self.folder = taught_folder(labelled, &out, labels)?;
+        Ok(())
     }
 
     /// Training items, and the held-out folder with its items: the `--hold-out` folders'
@@ -278,6 +361,31 @@ impl Split {
     }
 }
 
+/// `--also`'s labelled folders: labels beside the photos, or a folder of `images/` and
+/// `labels/` (YOLO's layout, and `synth_photos`'s).
+fn also_folders(args: &TrainArgs) -> Result<Vec<LabelledFolder>> {
+    if !args.also.is_empty() && args.model != Some(ModelKind::Cnn) {
+        bail!("--also trains the ball network: give --model cnn");
+    }
+    args.also
+        .iter()
+        .map(|dir| {
+            let (images, labels) = if dir.join("images").is_dir() && dir.join("labels").is_dir() {
+                (dir.join("images"), Some(dir.join("labels")))
+            } else {
+                (dir.clone(), None)
+            };
+            LabelledFolder::open(&LabelledArgs {
+                images: Some(images),
+                labels,
+                ball_classes: Vec::new(),
+                ..args.labelled.clone()
+            })
+            .with_context(|| format!("--also {}", dir.display()))
+        })
+        .collect()
+}
+
 /// Where the teacher's labels go: `--teacher-labels`, or beside `--out` with `.labels`.
 fn labels_dir(args: &TrainArgs) -> PathBuf {
     args.teacher_labels.clone().unwrap_or_else(|| {
@@ -287,18 +395,32 @@ fn labels_dir(args: &TrainArgs) -> PathBuf {
     })
 }
 
+/// The photos the teacher labels (`--images`, or a recording's frames).
+fn teacher_images(labelled: &LabelledArgs) -> Result<PathBuf> {
+    labelled
+        .images
+        .clone()
+        .context("the teacher labels a folder of photos: give --images DIR")
+}
+
+/// How the teacher's labels are written: YOLO files, a recording's frames lending each
+/// other labels.
+fn teacher_output(args: &TrainArgs) -> crate::cli::teach::LabelOutput {
+    crate::cli::teach::LabelOutput {
+        format: crate::labels::prelabel::LabelFormat::Yolo,
+        keep_existing: false,
+        lend: args.source.is_some().then_some(LEND_MAX_GAP),
+    }
+}
+
 /// The folder labelled by the teacher: its labels written beside `--out` (or to
 /// `--teacher-labels`), the folder opened again with them, its doubtful photos left out.
 fn teacher_labelled(
     args: &TrainArgs,
     folder: &LabelledFolder,
     lend: Option<usize>,
-) -> Result<LabelledFolder> {
-    let images = args
-        .labelled
-        .images
-        .clone()
-        .context("the teacher labels a folder of photos: give --images DIR")?;
+) -> Result<(LabelledFolder, crate::cli::teach::FolderLabels)> {
+    let images = teacher_images(&args.labelled)?;
     let out = labels_dir(args);
     if !args.teacher {
         eprintln!(
@@ -311,9 +433,8 @@ fn teacher_labelled(
     let teacher = args.teacher_args.teacher()?;
     let files: Vec<PathBuf> = folder.items.iter().map(|i| i.image.clone()).collect();
     let output = crate::cli::teach::LabelOutput {
-        format: crate::labels::prelabel::LabelFormat::Yolo,
-        keep_existing: false,
         lend,
+        ..teacher_output(args)
     };
     let labels = crate::cli::teach::label_folder(&images, &files, &out, output, &teacher, &how)?;
     crate::cli::teach::report(&labels, &out);
@@ -329,16 +450,33 @@ fn teacher_labelled(
             out.join("contact-sheet.png").display()
         );
     }
+    let taught = taught_folder(&args.labelled, &out, &labels)?;
+    Ok((taught, labels))
+}
+
+/// The photos opened with the teacher's labels, the doubtful ones left out.
+fn taught_folder(
+    labelled: &LabelledArgs,
+    out: &Path,
+    labels: &crate::cli::teach::FolderLabels,
+) -> Result<LabelledFolder> {
+    let images = teacher_images(labelled)?;
     let doubtful = labels.doubtful();
     let mut taught = LabelledFolder::open(&LabelledArgs {
-        labels: Some(out),
+        labels: Some(out.to_path_buf()),
         ball_classes: vec![0],
-        ..args.labelled.clone()
+        ..labelled.clone()
     })?;
     taught.items.retain(|i| {
         let name = crate::cli::detect_cmd::relative_name(&i.image, &images);
         !doubtful.contains(&name)
     });
+    taught.not_balls = labels
+        .records
+        .iter()
+        .map(|r| (images.join(&r.photo), r.not_balls()))
+        .filter(|(_, boxes)| !boxes.is_empty())
+        .collect();
     Ok(taught)
 }
 
@@ -481,8 +619,11 @@ fn write_held_out(
     Ok(())
 }
 
-fn run_detector(args: TrainArgs) -> Result<()> {
-    let split = Split::open(&args)?;
+/// The two-stage detector trained once on the split's training photos.
+fn train_two_stage(
+    args: &TrainArgs,
+    split: &Split,
+) -> Result<crate::cli::detector_train::TrainedDetector> {
     let parts = split.items(&args.hold_out)?;
     let (train_items, val_folder, val_items) = (&parts.train, parts.val_folder, &parts.val);
     if val_items.is_empty() {
@@ -523,8 +664,7 @@ fn run_detector(args: TrainArgs) -> Result<()> {
         seed: args.seed,
         ..base
     };
-    let started = Instant::now();
-    let out = train_detector(
+    train_detector(
         &split.folder,
         train_items,
         (val_folder, val_items),
@@ -535,9 +675,25 @@ fn run_detector(args: TrainArgs) -> Result<()> {
             random_negatives: args.random_negatives,
             copies: args.copies,
             hard_negative_rounds: args.hard_negative_rounds,
-            metadata: recipe(&args, train_items.len(), &parts.held_out),
+            metadata: recipe(args, train_items.len(), &parts.held_out),
         },
-    )?;
+    )
+}
+
+fn run_detector(args: TrainArgs) -> Result<()> {
+    let mut split = Split::open(&args)?;
+    let started = Instant::now();
+    let rounds = split.student_rounds(&args);
+    for round in 1..=rounds {
+        eprintln!("student round {round} of {rounds}: training on the teacher's labels");
+        let out = train_two_stage(&args, &split)?;
+        write_round(&args, round, &out.file)?;
+        let checker = out.checker;
+        split.settle(&args, |image, circle| {
+            crate::detection::detect::CandidateClassifier::probability(&checker, image, circle)
+        })?;
+    }
+    let out = train_two_stage(&args, &split)?;
     let mut file = out.file.clone();
     let (reached, balls) = out.training_balls_reached;
     println!("the candidate stage reached {reached} of the {balls} training balls");
@@ -549,7 +705,7 @@ fn run_detector(args: TrainArgs) -> Result<()> {
         );
     }
     if let Some(report) = &out.held_out {
-        println!("held-out photos ({}):", val_items.len());
+        println!("held-out photos ({}):", report.images);
         println!("{report}");
         let mut meta = out.net.metadata().clone();
         meta.insert("held_out".to_string(), held_out_line(report));
@@ -570,8 +726,17 @@ fn run_detector(args: TrainArgs) -> Result<()> {
     Ok(())
 }
 
-fn run_net(args: TrainArgs) -> Result<()> {
-    let split = Split::open(&args)?;
+/// A student round's model, beside `--out` (`NAME.round1.safetensors`), to compare with
+/// the last.
+fn write_round(args: &TrainArgs, round: usize, file: &[u8]) -> Result<()> {
+    let path = args.out.with_extension(format!("round{round}.safetensors"));
+    write_file(&path, file)?;
+    eprintln!("wrote round {round}'s model to {}", path.display());
+    Ok(())
+}
+
+/// The ball network trained once on the split's training photos.
+fn train_net(args: &TrainArgs, split: &Split) -> Result<crate::cli::net_train::NetTraining> {
     let parts = split.items(&args.hold_out)?;
     let (train_items, val_folder, val_items) = (&parts.train, parts.val_folder, &parts.val);
     let cfg = NetTrainConfig {
@@ -592,18 +757,36 @@ fn run_net(args: TrainArgs) -> Result<()> {
         anyhow::ensure!(n > 0, "--proposals must be at least 1");
         samples.appearance.max_candidates = n;
     }
-    let started = Instant::now();
-    let out = train_on_photos(
-        &split.folder,
-        train_items,
+    let mut train: Vec<(&LabelledFolder, Vec<&Item>)> = vec![(&split.folder, train_items.clone())];
+    for folder in &split.also {
+        train.push((folder, folder.items.iter().collect()));
+    }
+    train_on_photos(
+        &train,
         (val_folder, val_items),
         &cfg,
         &samples,
-        recipe(&args, train_items.len(), &parts.held_out),
-    )?;
+        recipe(args, train_items.len(), &parts.held_out),
+    )
+}
+
+fn run_net(args: TrainArgs) -> Result<()> {
+    let mut split = Split::open(&args)?;
+    let started = Instant::now();
+    let rounds = split.student_rounds(&args);
+    for round in 1..=rounds {
+        eprintln!("student round {round} of {rounds}: training on the teacher's labels");
+        let out = train_net(&args, &split)?;
+        write_round(&args, round, &out.trained.file)?;
+        let net = out.trained.net;
+        split.settle(&args, |image, circle| {
+            net.judge(image, circle).map(|v| v.probability())
+        })?;
+    }
+    let out = train_net(&args, &split)?;
     let mut file = out.trained.file.clone();
     if let Some(report) = &out.held_out {
-        println!("held-out photos ({}):", val_items.len());
+        println!("held-out photos ({}):", report.images);
         println!("{report}");
         // Record the held-out score in the file itself.
         let mut meta = out.trained.net.metadata().clone();

@@ -193,6 +193,99 @@ pub fn lend_labels(frames: &mut [(f64, PhotoLabels)], max_gap: usize) -> (usize,
     (promoted, demoted)
 }
 
+/// How the robot's own detector, trained on the teacher's sure labels (the student),
+/// settles what the teacher doubts: two detectors that learned differently rarely make
+/// the same mistake.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Agreement {
+    /// A doubt the student gives at least this probability is the photo's ball (when it
+    /// is the only such doubt).
+    pub promote: f64,
+    /// A sure ball the student gives less than this becomes a doubt.
+    pub demote: f64,
+    /// One ball a photo (as in [`TeacherLabelling::one_ball`]).
+    pub one_ball: bool,
+}
+
+impl Default for Agreement {
+    fn default() -> Self {
+        Agreement {
+            promote: 0.9,
+            demote: 0.05,
+            one_ball: true,
+        }
+    }
+}
+
+/// What the student changed in a photo's labels.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Settled {
+    /// Doubts that became balls.
+    pub promoted: usize,
+    /// Sure balls that became doubts.
+    pub demoted: usize,
+}
+
+impl std::ops::AddAssign for Settled {
+    fn add_assign(&mut self, o: Settled) {
+        self.promoted += o.promoted;
+        self.demoted += o.demoted;
+    }
+}
+
+/// The student's word on one photo's labels: `student(box)` is its probability that the
+/// box holds a ball (`None`: it cannot judge the box, which then stays as it is). A sure
+/// ball the student calls background becomes a doubt; then, in a photo with no sure ball
+/// left, the one doubt the student is sure of becomes the ball (under `one_ball`, the
+/// other doubts are then something else). Two or more doubts the student is sure of leave
+/// the photo doubtful. A photo the student cannot settle stays out of training.
+pub fn settle(
+    labels: &mut PhotoLabels,
+    how: &Agreement,
+    mut student: impl FnMut(&BallBox) -> Option<f64>,
+) -> Settled {
+    let mut out = Settled::default();
+    let (kept, dropped): (Vec<Taught>, Vec<Taught>) = labels
+        .balls
+        .drain(..)
+        .partition(|t| student(&t.ball_box).is_none_or(|p| p >= how.demote));
+    out.demoted = dropped.len();
+    labels.balls = kept;
+    labels.doubts.extend(dropped);
+    if how.one_ball && labels.balls.is_empty() {
+        // The sure ball is gone: what was taken for something else beside it is in doubt.
+        labels.doubts.append(&mut labels.beside);
+    }
+    if how.one_ball && !labels.balls.is_empty() {
+        if out.demoted > 0 {
+            labels.beside.append(&mut labels.doubts);
+        }
+        return out;
+    }
+    let sure: Vec<usize> = labels
+        .doubts
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| student(&t.ball_box).is_some_and(|p| p >= how.promote))
+        .map(|(k, _)| k)
+        .collect();
+    if how.one_ball {
+        if let [k] = sure[..] {
+            let t = labels.doubts.remove(k);
+            labels.balls.push(t);
+            labels.beside.append(&mut labels.doubts);
+            out.promoted = 1;
+        }
+    } else {
+        for k in sure.into_iter().rev() {
+            let t = labels.doubts.remove(k);
+            labels.balls.push(t);
+            out.promoted += 1;
+        }
+    }
+    out
+}
+
 fn distance(a: &BallBox, b: &BallBox) -> f64 {
     let (p, q) = (a.centre_px(), b.centre_px());
     (p[0] - q[0]).hypot(p[1] - q[1])
@@ -243,6 +336,71 @@ mod tests {
         assert!(frames[1].1.certain());
         assert!(frames[3].1.balls.is_empty());
         assert!(!frames[3].1.certain());
+    }
+
+    /// A student that knows the ball is at x = 5 and nowhere else.
+    fn student(b: &BallBox) -> Option<f64> {
+        Some(if (b.x_min_px - 5.0).abs() < 1.0 {
+            0.97
+        } else {
+            0.01
+        })
+    }
+
+    #[test]
+    fn the_student_settles_a_doubt_and_unseats_a_wrong_sure_ball() {
+        let how = Agreement::default();
+        // The teacher doubts the ball and the student is sure of it.
+        let mut doubted = frame(0.0, vec![], vec![taught(5.0, 0.3), taught(200.0, 0.2)]).1;
+        let s = settle(&mut doubted, &how, student);
+        assert_eq!(
+            s,
+            Settled {
+                promoted: 1,
+                demoted: 0
+            }
+        );
+        assert_eq!(doubted.balls, vec![taught(5.0, 0.3)]);
+        assert_eq!(doubted.beside, vec![taught(200.0, 0.2)]);
+        assert!(doubted.certain());
+        // The teacher was sure of a lamp, and doubted the ball beside it.
+        let mut wrong = PhotoLabels {
+            balls: vec![taught(100.0, 0.7)],
+            beside: vec![taught(5.0, 0.1)],
+            ..PhotoLabels::default()
+        };
+        let s = settle(&mut wrong, &how, student);
+        assert_eq!(
+            s,
+            Settled {
+                promoted: 1,
+                demoted: 1
+            }
+        );
+        assert_eq!(wrong.balls, vec![taught(5.0, 0.1)]);
+        assert_eq!(wrong.beside, vec![taught(100.0, 0.7)]);
+    }
+
+    #[test]
+    fn what_the_student_cannot_settle_stays_doubtful() {
+        let how = Agreement::default();
+        // Two doubts the student is sure of: which is the one ball?
+        let both = |_: &BallBox| Some(0.99);
+        let mut two = frame(0.0, vec![], vec![taught(5.0, 0.3), taught(200.0, 0.2)]).1;
+        assert_eq!(settle(&mut two, &how, both), Settled::default());
+        assert!(!two.certain() && two.balls.is_empty());
+        // A doubt the student cannot judge (cut by the photo's edge) stays a doubt.
+        let mut unjudged = frame(0.0, vec![], vec![taught(5.0, 0.3)]).1;
+        assert_eq!(settle(&mut unjudged, &how, |_| None), Settled::default());
+        assert!(!unjudged.certain());
+        // Several balls a photo: each doubt the student is sure of is a ball.
+        let several = Agreement {
+            one_ball: false,
+            ..how
+        };
+        let mut many = frame(0.0, vec![], vec![taught(5.0, 0.3), taught(200.0, 0.2)]).1;
+        assert_eq!(settle(&mut many, &several, both).promoted, 2);
+        assert!(many.certain());
     }
 
     #[test]

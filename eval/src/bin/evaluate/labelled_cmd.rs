@@ -30,6 +30,55 @@ pub struct LabelledEvalArgs {
     /// training (repeatable); those rows are marked and summed apart.
     #[arg(long = "hold-out", requires = "labelled")]
     pub hold_out: Vec<String>,
+    /// With `--labelled`: a trained model scored beside the shipped detectors, as
+    /// `NAME=FILE` (a ball network judging the appearance proposals, or a two-stage
+    /// detector file; repeatable). With `--teacher`, `shipped` scores the photo commands'
+    /// default beside the teacher.
+    #[arg(long = "beside", value_name = "NAME=FILE", requires = "labelled")]
+    pub beside: Vec<String>,
+}
+
+/// A detector to score: its row name, its settings, and the model file in place of the
+/// shipped one.
+struct Scored {
+    name: String,
+    preset: DetectorPreset,
+    file: Option<PathBuf>,
+}
+
+/// The shipped detectors, then `--model NAME=FILE`'s.
+fn scored(args: &LabelledEvalArgs) -> Result<Vec<Scored>> {
+    let mut out: Vec<Scored> = [
+        (DetectorPreset::Net, "net"),
+        (DetectorPreset::TwoStage, "two-stage"),
+        (DetectorPreset::Colour, "colour"),
+    ]
+    .into_iter()
+    .map(|(preset, name)| Scored {
+        name: name.to_string(),
+        preset,
+        file: None,
+    })
+    .collect();
+    for m in args.beside.iter().filter(|m| *m != "shipped") {
+        let Some((name, file)) = m.split_once('=') else {
+            anyhow::bail!("--beside {m}: give it as NAME=FILE");
+        };
+        let file = PathBuf::from(file);
+        let bytes = std::fs::read(&file)
+            .map_err(|e| anyhow::anyhow!("--beside {m}: reading {}: {e}", file.display()))?;
+        let preset = if robot_agent::is_detector_file(&bytes) {
+            DetectorPreset::TwoStage
+        } else {
+            DetectorPreset::Net
+        };
+        out.push(Scored {
+            name: name.to_string(),
+            preset,
+            file: Some(file),
+        });
+    }
+    Ok(out)
 }
 
 /// A photo's event: its top-level subfolder.
@@ -97,14 +146,11 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
     ];
     let mut stage_lines = Vec::new();
     let min_probability = robot_agent::ValidationConfig::default().min_probability;
-    for (preset, name) in [
-        (DetectorPreset::Net, "net"),
-        (DetectorPreset::TwoStage, "two-stage"),
-        (DetectorPreset::Colour, "colour"),
-    ] {
+    for Scored { name, preset, file } in scored(args)? {
+        let name = name.as_str();
         let config = preset.apply(DetectorConfig::default());
-        let detector = Detector::new(config)?;
-        let classifier = robot_agent::builtin::classifier(&config)?;
+        let detector: Detector = robot_agent::load_detector(&config, file.as_deref())?;
+        let classifier = robot_agent::load_classifier(&config, file.as_deref())?;
         let score = |items: &[&Item], what: &str| {
             evaluate_items(
                 &folder,
@@ -161,9 +207,12 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
         for h in &args.hold_out {
             cmd.push_str(&format!(" --hold-out {h}"));
         }
+        for m in &args.beside {
+            cmd.push_str(&format!(" --beside {m}"));
+        }
         cmd.push_str(&format!(" --doc {}", path.display()));
         let section = format!(
-            "Produced by `{cmd}` (real photos; the shipped detectors, no camera model, \
+            "Produced by `{cmd}` (real photos; the shipped detectors and any `--beside`, no camera model, \
              `min_probability` {min_probability}; recall and precision per photo, ball recall \
              and the width bands per labelled ball).\n\n{table}"
         );

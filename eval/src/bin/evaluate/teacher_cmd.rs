@@ -34,6 +34,73 @@ pub struct TeacherEvalArgs {
     pub teacher_json: Option<PathBuf>,
 }
 
+/// A robot detector scored beside the teacher.
+struct Robot {
+    name: String,
+    detector: robot_agent::Detector,
+    classifier: Box<dyn robot_agent::CandidateClassifier + Send + Sync>,
+}
+
+/// The robot's detectors of `--beside`, scored box by box beside the teacher (every
+/// candidate with its probability): `shipped` for the photo commands' default, or a
+/// trained model as `NAME=FILE`.
+fn robots(beside: &[String]) -> Result<Vec<Robot>> {
+    beside
+        .iter()
+        .map(|b| {
+            let (name, file) = match b.split_once('=') {
+                Some((n, f)) => (n.to_string(), Some(PathBuf::from(f))),
+                None if b == "shipped" => ("shipped".to_string(), None),
+                None => anyhow::bail!("--beside {b}: give `shipped` or NAME=FILE"),
+            };
+            let bytes = file.as_ref().map(std::fs::read).transpose()?;
+            let preset = if bytes.as_deref().is_some_and(robot_agent::is_detector_file) {
+                robot_agent::DetectorPreset::TwoStage
+            } else {
+                robot_agent::DetectorPreset::Net
+            };
+            let config = preset.apply(robot_agent::DetectorConfig::default());
+            Ok(Robot {
+                name,
+                detector: robot_agent::load_detector(&config, file.as_deref())?,
+                classifier: robot_agent::load_classifier(&config, file.as_deref())?,
+            })
+        })
+        .collect()
+}
+
+/// A robot detector's candidates in a photo as ball boxes with their probabilities (the
+/// repeats of a ball and those refused outright left out), and its time, milliseconds.
+fn robot_boxes(robot: &Robot, image: &robot_agent::RgbImage) -> Result<(Vec<(BallBox, f64)>, f64)> {
+    let started = Instant::now();
+    let found = robot_agent::detect_photo(
+        &robot.detector,
+        robot.classifier.as_ref(),
+        robot_agent::ValidationConfig::default().min_probability,
+        image,
+        None,
+        &mut robot_agent::NoClock,
+    )?
+    .into_iter()
+    .filter(|c| c.rejection != Some(robot_agent::PhotoRejection::Repeat))
+    .filter_map(|c| {
+        let p = c.probability?;
+        let [x, y] = c.circle.center_px;
+        let r = c.circle.radius_px;
+        Some((
+            BallBox {
+                x_min_px: x - r,
+                y_min_px: y - r,
+                x_max_px: x + r,
+                y_max_px: y + r,
+            },
+            p,
+        ))
+    })
+    .collect();
+    Ok((found, started.elapsed().as_secs_f64() * 1000.0))
+}
+
 fn pct(v: f64) -> String {
     format!("{:.1}", 100.0 * v)
 }
@@ -111,6 +178,7 @@ fn row(name: &str, passes: &str, r: &LabellerReport, ms: f64) -> String {
 pub fn run(
     dir: &Path,
     labels: Option<&Path>,
+    beside: &[String],
     args: &TeacherEvalArgs,
     doc: Option<&Path>,
     plots: &Path,
@@ -137,8 +205,14 @@ pub fn run(
         ),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|".to_string(),
     ];
-    // Each photo read once and seen through every pass set.
+    // Each photo read once and seen through every pass set, then by each robot detector.
     let sets = pass_sets();
+    let robots = robots(beside)?;
+    let names: Vec<String> = sets
+        .iter()
+        .map(|(_, n)| n.to_string())
+        .chain(robots.iter().map(|r| format!("robot: {}", r.name)))
+        .collect();
     let mut scored = Vec::new();
     for (k, item) in items.iter().enumerate() {
         let loaded = robot_agent::load_rgb(&item.image)
@@ -148,6 +222,11 @@ pub fn run(
                 let (mut found, mut ms) = (Vec::new(), Vec::new());
                 for (passes, _) in &sets {
                     let (f, t) = ball_boxes(&teacher, &image, passes)?;
+                    found.push(f);
+                    ms.push(t);
+                }
+                for robot in &robots {
+                    let (f, t) = robot_boxes(robot, &image)?;
                     found.push(f);
                     ms.push(t);
                 }
@@ -168,7 +247,8 @@ pub fn run(
     }
     let mut json = Vec::new();
     let mut overall: Vec<(&str, LabellerReport)> = Vec::new();
-    for (p, (_, name)) in sets.iter().enumerate() {
+    for (p, name) in names.iter().enumerate() {
+        let name = name.as_str();
         let report_of = |rows: Vec<&Scored>| {
             let photos: Vec<PhotoBoxes> = rows
                 .iter()
@@ -204,14 +284,17 @@ pub fn run(
             .with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(path) = doc {
-        let every = if args.every > 1 {
+        let mut every = if args.every > 1 {
             format!(" --every {}", args.every)
         } else {
             String::new()
         };
+        for b in beside {
+            every.push_str(&format!(" --beside {b}"));
+        }
         let section = format!(
             "Produced by `cargo run --release -p eval --bin evaluate -- --labelled {} --teacher{every} --doc {} --plots {}` \
-             (real photos; the shipped teacher; a box is right when its centre lies in a labelled ball \
+             (real photos; the shipped teacher, and the robot's detectors with every candidate it judged; a box is right when its centre lies in a labelled ball \
              no better box took; recall per labelled ball; \"reached\": a box of any score on the ball).\n\n{table}",
             dir.display(),
             path.display(),
@@ -227,7 +310,7 @@ pub fn run(
 /// 10–20 px balls' recall beside (the size most robot-football balls are seen at).
 fn pr_chart(reports: &[(&str, LabellerReport)]) -> Chart {
     let mut chart = Chart::new(
-        "The teacher's sports-ball boxes on real onboard photos",
+        "Ball boxes on real onboard photos: the teacher and the robot's detectors",
         "recall (labelled balls found)",
         "precision (boxes on a ball)",
     );
