@@ -212,7 +212,7 @@ export class PitchView {
       const name = r.online ? r.robot_id : `${r.robot_id} (offline)`;
       ctx.fillText(name, px + radius + 2, py - radius);
       this.layout.block({ x: px - radius, y: py - radius, w: 2 * radius, h: 2 * radius });
-      this.layout.block({ x: px + radius + 2, y: py - radius - 11, w: ctx.measureText(name).width, h: 14 });
+      this.layout.block({ x: px + radius + 2, y: py - radius - 11, w: ctx.measureText(name).width, h: 14 }, true);
       out.robots[r.robot_id] = { online: r.online, colour: body, px, py, radius_px: radius };
     }
   }
@@ -289,7 +289,7 @@ export class PitchView {
     ctx.fill();
     ctx.stroke();
     ctx.restore();
-    this.layout.block({ x: px - radius, y: py - radius, w: 2 * radius, h: 2 * radius });
+    this.layout.block({ x: px - radius, y: py - radius, w: 2 * radius, h: 2 * radius }, true);
     out.ball = { x_m: x, y_m: y, px, py, radius_px: radius, status: b.status, ellipse: e, stamp: b.stamp, existence };
   }
 

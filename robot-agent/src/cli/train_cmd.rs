@@ -683,17 +683,9 @@ fn train_two_stage(
 fn run_detector(args: TrainArgs) -> Result<()> {
     let mut split = Split::open(&args)?;
     let started = Instant::now();
-    let rounds = split.student_rounds(&args);
-    for round in 1..=rounds {
-        eprintln!("student round {round} of {rounds}: training on the teacher's labels");
-        let out = train_two_stage(&args, &split)?;
-        write_round(&args, round, &out.file)?;
-        let checker = out.checker;
-        split.settle(&args, |image, circle| {
-            crate::detection::detect::CandidateClassifier::probability(&checker, image, circle)
-        })?;
-    }
-    let out = train_two_stage(&args, &split)?;
+    let out = with_student_rounds(&args, &mut split, train_two_stage, |out| {
+        (out.file.clone(), Box::new(out.checker.clone()))
+    })?;
     let mut file = out.file.clone();
     let (reached, balls) = out.training_balls_reached;
     println!("the candidate stage reached {reached} of the {balls} training balls");
@@ -726,13 +718,31 @@ fn run_detector(args: TrainArgs) -> Result<()> {
     Ok(())
 }
 
-/// A student round's model, beside `--out` (`NAME.round1.safetensors`), to compare with
-/// the last.
-fn write_round(args: &TrainArgs, round: usize, file: &[u8]) -> Result<()> {
-    let path = args.out.with_extension(format!("round{round}.safetensors"));
-    write_file(&path, file)?;
-    eprintln!("wrote round {round}'s model to {}", path.display());
-    Ok(())
+/// The student's weights file and its judge of a circle in a photo.
+type Student = (
+    Vec<u8>,
+    Box<dyn crate::detection::detect::CandidateClassifier>,
+);
+
+/// `train` once, or with the teacher's labels, `--student-rounds` times before the last:
+/// each round's model (`student` of its output) is written beside `--out`
+/// (`NAME.round1.safetensors`, to compare with the last) and settles the teacher's labels.
+fn with_student_rounds<T>(
+    args: &TrainArgs,
+    split: &mut Split,
+    train: impl Fn(&TrainArgs, &Split) -> Result<T>,
+    student: impl Fn(&T) -> Student,
+) -> Result<T> {
+    let rounds = split.student_rounds(args);
+    for round in 1..=rounds {
+        eprintln!("student round {round} of {rounds}: training on the teacher's labels");
+        let (file, judge) = student(&train(args, split)?);
+        let path = args.out.with_extension(format!("round{round}.safetensors"));
+        write_file(&path, &file)?;
+        eprintln!("wrote round {round}'s model to {}", path.display());
+        split.settle(args, |image, circle| judge.probability(image, circle))?;
+    }
+    train(args, split)
 }
 
 /// The ball network trained once on the split's training photos.
@@ -773,17 +783,10 @@ fn train_net(args: &TrainArgs, split: &Split) -> Result<crate::cli::net_train::N
 fn run_net(args: TrainArgs) -> Result<()> {
     let mut split = Split::open(&args)?;
     let started = Instant::now();
-    let rounds = split.student_rounds(&args);
-    for round in 1..=rounds {
-        eprintln!("student round {round} of {rounds}: training on the teacher's labels");
-        let out = train_net(&args, &split)?;
-        write_round(&args, round, &out.trained.file)?;
-        let net = out.trained.net;
-        split.settle(&args, |image, circle| {
-            net.judge(image, circle).map(|v| v.probability())
-        })?;
-    }
-    let out = train_net(&args, &split)?;
+    let out = with_student_rounds(&args, &mut split, train_net, |out| {
+        let net = crate::detection::classifier::NetClassifier::new(out.trained.net.clone());
+        (out.trained.file.clone(), Box::new(net))
+    })?;
     let mut file = out.trained.file.clone();
     if let Some(report) = &out.held_out {
         println!("held-out photos ({}):", report.images);
