@@ -1,4 +1,5 @@
-//! Detection, one stage per module, and the ball classifier's training.
+//! Detection, one stage per module: what the robot runs (training is in
+//! [`crate::training`]).
 //!
 //! - [`hsv`]: HSV colour thresholds, the frame's colour mask (exact, or through a lookup
 //!   table), and lighting adaptation of the thresholds.
@@ -14,9 +15,6 @@
 //! - [`hog`]: the histogram-of-oriented-gradients descriptor of a patch (288 features).
 //! - [`svm`]: the RBF-kernel SVM candidate filter: SMO training, Platt-calibrated
 //!   probability, model serialisation.
-//! - [`train`]: training the filter from labelled patches: augmentation, split, grid
-//!   search by cross-validation, held-out metrics; the detectors that mine training
-//!   candidates.
 //! - [`colour_fit`]: the colour window fitted to labelled photos' ball pixels.
 //! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
 //! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
@@ -26,26 +24,18 @@
 //!   from their surroundings, by centre-surround filters over an image pyramid.
 //! - [`ballnet`]: the ball network, a small CNN on a candidate's colour patch giving the
 //!   ball's probability and its refined centre and radius, with its own forward pass.
-//! - [`ballnet_data`]: the network's training samples from labelled photos, and their
-//!   augmentation.
-//! - [`ballnet_train`]: training the network on a CPU, and its weights file.
 //! - [`nn`]: the forward pass of the detector's small networks (im2col and matrix
 //!   products, depthwise convolutions, pooling) and their weights files.
 //! - [`heatnet`]: the candidate network, a heatmap of balls over the downscaled frame,
 //!   and its peaks as candidates.
 //! - [`checker`]: the grey checker, a network on a candidate's 32×32 brightness-normalised
 //!   grey patch giving the ball's probability and its refined circle, a batch at a time.
-//! - [`detector_train`]: training both networks on a CPU, and the detector's weights file.
 //! - [`detect`]: one frame to ball candidates through the stages above.
 //! - [`rectify`]: local perspective views of a fisheye frame, where a ball is round.
 //! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
 //!   what became of it, and the photo with the candidates drawn.
 
 pub mod ballnet;
-#[cfg(feature = "train")]
-pub mod ballnet_data;
-#[cfg(feature = "train")]
-pub mod ballnet_train;
 pub mod blob_circle;
 pub mod checker;
 pub mod classifier;
@@ -54,8 +44,6 @@ pub mod components;
 pub mod contrast;
 pub mod detect;
 mod detect_config;
-#[cfg(feature = "train")]
-pub mod detector_train;
 pub mod heatnet;
 pub mod hog;
 pub mod hough;
@@ -65,11 +53,10 @@ pub mod morphology;
 pub mod nn;
 pub mod patch;
 #[cfg(test)]
-mod patch_fixtures;
+pub(crate) mod patch_fixtures;
 pub mod photo;
 pub mod rectify;
 pub mod seeded_mask;
 pub mod svm;
 mod svm_model;
-pub mod train;
 pub mod two_colour;

@@ -10,7 +10,8 @@
 //! This root is the crate's front door; behind it, private modules, one per concern:
 //! calibration (camera models, chessboards, [`calibrate_with`]), detection (one frame to
 //! ball candidates, one stage per module: [`Detector`], the classifiers [`BallNet`] and
-//! [`SvmModel`]), projection (pixel to floor point with its covariance, and the MiRo's
+//! [`SvmModel`]), training (the learned stages' training, apart from what the robot
+//! runs), projection (pixel to floor point with its covariance, and the MiRo's
 //! kinematics), the image buffers ([`RgbImage`], [`GrayImage`]), the pipeline of one frame
 //! and the [`Agent`] between frames (with each camera's perception counters), a camera's
 //! view for people watching ([`camera_view`]), image files and ROS messages ([`ros_msg`]),
@@ -56,6 +57,7 @@ mod projection;
 mod runtime;
 #[cfg(test)]
 mod test_fixtures;
+mod training;
 mod view;
 
 pub use agent::{Agent, FrameInput, PipelineConfig};
@@ -70,7 +72,6 @@ pub use detection::hough::Circle;
 pub use detection::patch::{Patch, PatchConfig, extract as extract_patch};
 pub use detection::photo::{PhotoCandidate, PhotoRejection, detect_photo};
 pub use detection::svm::Model as SvmModel;
-pub use detection::train::miners as training_miners;
 pub use image::RgbImage;
 pub use image::gray::GrayImage;
 pub use io::image_io::{
@@ -92,4 +93,5 @@ pub use runtime::timer::StageTimer;
 pub use runtime::{
     FrameHook, FrameReport, RunArgs, Source, Summary as RunSummary, run as run_agent, wall_now,
 };
+pub use training::hog_svm::miners as training_miners;
 pub use view::{VIEW_JPEG_TARGET_BYTES, ViewError, camera_view};

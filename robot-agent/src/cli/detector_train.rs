@@ -6,17 +6,17 @@
 use crate::cli::evaluate::held_out_score;
 use crate::cli::labelled::{Item, LabelledFolder};
 use crate::cli::progress::bar;
-use crate::detection::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
 use crate::detection::checker::{self, Checker};
 use crate::detection::detect::{Detector, DetectorConfig, Proposer};
-use crate::detection::detector_train::{
-    FramePhoto, Progress, StageTrainConfig, TrainedStage, candidate_net_of, train_candidates,
-    train_checker, weights_file,
-};
 use crate::detection::heatnet::{HeatNet, PeakConfig};
 use crate::image::RgbImage;
 use crate::labels::BallBox;
 use crate::labels::eval::LabelReport;
+use crate::training::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
+use crate::training::detector_train::{
+    FramePhoto, Progress, StageTrainConfig, TrainedStage, candidate_net_of, train_candidates,
+    train_checker, weights_file,
+};
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use proto::rng::Rng;
@@ -174,7 +174,7 @@ fn mined_negatives(
             if accepted
                 && balls
                     .iter()
-                    .all(|b| crate::detection::ballnet_data::clear_of(&c.circle, b))
+                    .all(|b| crate::training::ballnet_data::clear_of(&c.circle, b))
                 && let Some(patch) = checker::patch_for(image, &c.circle)
             {
                 out.push(Sample {

@@ -1,7 +1,7 @@
 //! Training patches from labelled photos: each labelled ball is a positive, cut as the
 //! detector's candidate window around a circle inscribed in its box; negatives are the
 //! candidates the detector's first stages propose away from every ball (with the mining
-//! windows of [`crate::detection::train::miners`]: the ball's widest colour window and
+//! windows of [`crate::training::hog_svm::miners`]: the ball's widest colour window and
 //! white/grey), and random windows that touch no ball.
 
 use crate::cli::labelled::LabelledFolder;
@@ -40,7 +40,7 @@ pub fn labelled_patches(
     seed: u64,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(Vec<Patch>, Vec<Patch>)> {
-    let detectors = crate::detection::train::miners()?;
+    let detectors = crate::training::hog_svm::miners()?;
     let cfg = PatchConfig::default();
     let mut rng = Rng::stream(seed, "labelled-negatives", 0);
     let (mut pos, mut neg) = (Vec::new(), Vec::new());

@@ -6,11 +6,11 @@
 use crate::cli::evaluate::held_out_score;
 use crate::cli::labelled::{Item, LabelledFolder};
 use crate::cli::progress::bar;
-use crate::detection::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
-use crate::detection::ballnet_train::{NetTrainConfig, Progress, TrainedNet, train_net};
 use crate::detection::classifier::NetClassifier;
 use crate::detection::detect::{Detector, DetectorConfig, Proposer};
 use crate::labels::eval::LabelReport;
+use crate::training::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
+use crate::training::ballnet_train::{NetTrainConfig, Progress, TrainedNet, train_net};
 use anyhow::{Context, Result};
 use proto::rng::Rng;
 use std::collections::BTreeMap;

@@ -5,7 +5,7 @@
 
 use crate::cli::labelled::{LabelledArgs, LabelledFolder};
 use crate::detection::patch::{Patch, PatchConfig, extract};
-use crate::detection::train::{TrainConfig, train};
+use crate::training::hog_svm::{TrainConfig, train};
 use anyhow::{Context, Result};
 use std::path::Path;
 

@@ -6,9 +6,9 @@ use crate::cli::detector_train::{DetectorTraining, train_detector};
 use crate::cli::labelled::{Item, LabelledArgs, LabelledFolder};
 use crate::cli::net_train::{held_out, train_on_photos};
 use crate::cli::train::{fit_and_write, folder_patches, labelled_folder_patches};
-use crate::detection::ballnet_data::SampleConfig;
-use crate::detection::ballnet_train::NetTrainConfig;
-use crate::detection::detector_train::StageTrainConfig;
+use crate::training::ballnet_data::SampleConfig;
+use crate::training::ballnet_train::NetTrainConfig;
+use crate::training::detector_train::StageTrainConfig;
 use anyhow::{Context, Result, bail};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -642,7 +642,7 @@ fn train_two_stage(
             std::fs::read(p).with_context(|| format!("reading {}", p.display()))?
         };
         Some(
-            crate::detection::detector_train::stages_of(&bytes)
+            crate::training::detector_train::stages_of(&bytes)
                 .with_context(|| format!("{} is not a detector file", p.display()))?,
         )
     };
@@ -701,7 +701,7 @@ fn run_detector(args: TrainArgs) -> Result<()> {
         println!("{report}");
         let mut meta = out.net.metadata().clone();
         meta.insert("held_out".to_string(), held_out_line(report));
-        file = crate::detection::detector_train::with_metadata(&file, &meta)?;
+        file = crate::training::detector_train::with_metadata(&file, &meta)?;
         write_held_out(&args, report, "two-stage detector")?;
     }
     write_file(&args.out, &file)?;
@@ -794,7 +794,7 @@ fn run_net(args: TrainArgs) -> Result<()> {
         // Record the held-out score in the file itself.
         let mut meta = out.trained.net.metadata().clone();
         meta.insert("held_out".to_string(), held_out_line(report));
-        file = crate::detection::ballnet_train::with_metadata(&file, &meta)?;
+        file = crate::training::ballnet_train::with_metadata(&file, &meta)?;
         write_held_out(&args, report, "ball network")?;
     }
     write_file(&args.out, &file)?;

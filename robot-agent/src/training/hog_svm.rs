@@ -488,5 +488,5 @@ pub fn miners() -> Result<Vec<Detector>, DetectError> {
 }
 
 #[cfg(test)]
-#[path = "train_tests.rs"]
+#[path = "hog_svm_tests.rs"]
 mod tests;

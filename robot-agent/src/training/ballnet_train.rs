@@ -5,7 +5,7 @@
 //! over the radius, the log of its radius ratio). The loss is the logistic loss of the
 //! logit plus the squared error of the correction on balls only. AdamW with a cosine
 //! learning-rate schedule; every epoch sees every training sample once, augmented anew
-//! ([`crate::detection::ballnet_data::augment`]); the epoch with the lowest held-out loss
+//! ([`crate::training::ballnet_data::augment`]); the epoch with the lowest held-out loss
 //! is the one written. The file is safetensors with the format and the caller's metadata
 //! (data, command, held-out score) beside the weights, read back by
 //! [`BallNet::from_safetensors`] before it is returned, so a file that comes out of here
@@ -15,8 +15,8 @@ use crate::detection::ballnet::FLAT;
 use crate::detection::ballnet::{
     BallNet, BallNetError, CONVOLUTIONS, FORMAT, HIDDEN, OUTPUTS, input,
 };
-use crate::detection::ballnet_data::{Sample, augment};
 use crate::detection::patch::PATCH_SIDE_PX;
+use crate::training::ballnet_data::{Sample, augment};
 use candle_core::{DType, Device, Tensor};
 use candle_nn::{Conv2d, Conv2dConfig, Linear, Module, Optimizer, VarBuilder, VarMap};
 use proto::rng::Rng;
@@ -185,7 +185,7 @@ fn loss(
 
 /// The variables by name, in name order.
 fn sorted_vars(varmap: &VarMap) -> Result<Vec<(String, candle_core::Var)>, NetTrainError> {
-    crate::detection::detector_train::sorted_vars(varmap).map_err(NetTrainError::Serialise)
+    crate::training::detector_train::sorted_vars(varmap).map_err(NetTrainError::Serialise)
 }
 
 /// The weights file of the current variables.
@@ -198,7 +198,7 @@ fn weights_file(
         let t = var.as_tensor();
         tensors.push((name, t.dims().to_vec(), t.flatten_all()?.to_vec1::<f32>()?));
     }
-    crate::detection::detector_train::encode(&tensors, metadata, FORMAT)
+    crate::training::detector_train::encode(&tensors, metadata, FORMAT)
         .map_err(NetTrainError::Serialise)
 }
 
@@ -207,7 +207,7 @@ pub fn with_metadata(
     file: &[u8],
     metadata: &BTreeMap<String, String>,
 ) -> Result<Vec<u8>, NetTrainError> {
-    crate::detection::detector_train::restamp(file, metadata, FORMAT)
+    crate::training::detector_train::restamp(file, metadata, FORMAT)
         .map_err(NetTrainError::Serialise)
 }
 

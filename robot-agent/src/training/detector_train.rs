@@ -10,7 +10,7 @@
 //!   the centre and radius learned on the ball's cell and the eight around it (so that
 //!   whichever of them peaks points at the ball).
 //! - The grey checker ([`crate::detection::checker`]) learns from patches
-//!   ([`crate::detection::ballnet_data`]): candidates on and off the balls, moved and
+//!   ([`crate::training::ballnet_data`]): candidates on and off the balls, moved and
 //!   scaled copies of every ball, random windows, augmented every epoch; the logistic loss
 //!   plus the squared error of the correction on balls.
 //!
@@ -20,13 +20,13 @@
 //! back by the agent's own forward passes before it is returned, so a file that comes out
 //! of here always loads.
 
-use crate::detection::ballnet_data::{Sample, augment, ball_circle, colour_matrix};
 use crate::detection::checker::{self, Checker};
 use crate::detection::heatnet::{self, CELL_PX, FORMAT, HEAD_IN, HeatNet, InputGeometry, LAYERS};
 use crate::detection::nn::WeightsError;
 use crate::detection::patch::PATCH_SIDE_PX;
 use crate::image::RgbImage;
 use crate::labels::BallBox;
+use crate::training::ballnet_data::{Sample, augment, ball_circle, colour_matrix};
 use candle_core::{DType, Device, Tensor};
 use candle_nn::{Conv2dConfig, Module, Optimizer, VarBuilder, VarMap};
 use proto::rng::Rng;

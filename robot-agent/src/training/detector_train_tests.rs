@@ -72,12 +72,12 @@ fn trained_pair() -> (TrainedStage, TrainedStage) {
             120,
             Some(([80.0, 60.0], 10.0 + f64::from(k))),
         );
-        let cfg = crate::detection::ballnet_data::SampleConfig {
+        let cfg = crate::training::ballnet_data::SampleConfig {
             window_over_radius: checker::WINDOW_OVER_RADIUS,
             ..Default::default()
         };
         samples.extend(
-            crate::detection::ballnet_data::photo_samples(&img, &balls, &[], &cfg, &mut rng).0,
+            crate::training::ballnet_data::photo_samples(&img, &balls, &[], &cfg, &mut rng).0,
         );
     }
     let check = train_checker(&samples, &samples[..4], &tiny(), None, &mut |_| {}).unwrap();
