@@ -30,13 +30,16 @@
 //!   and its peaks as candidates.
 //! - [`checker`]: the grey checker, a network on a candidate's 32×32 brightness-normalised
 //!   grey patch giving the ball's probability and its refined circle, a batch at a time.
-//! - [`detect`]: one frame to ball candidates through the stages above.
+//! - [`detect`]: one frame to ball candidates: the proposals (the colour path's in its own
+//!   module, the candidate network's and the appearance proposals), then [`check`].
+//! - [`check`]: the proposals judged by the candidate classifier, a view at a time.
 //! - [`rectify`]: local perspective views of a fisheye frame, where a ball is round.
 //! - [`photo`]: every candidate of one photo on its own (no pose, no projection), with
 //!   what became of it, and the photo with the candidates drawn.
 
 pub mod ballnet;
 pub mod blob_circle;
+pub mod check;
 pub mod checker;
 pub mod classifier;
 pub mod colour_fit;

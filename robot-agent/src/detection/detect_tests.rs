@@ -3,6 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
+use crate::detection::hough::HoughConfig;
 use crate::detection::kmeans::ColourCheckConfig;
 use crate::detection::two_colour::PatternConfig;
 
