@@ -25,8 +25,8 @@ pub const CLASSIFIER_JSON: &str = include_str!("../data/ball-classifier.json");
 pub const BALLNET: &[u8] = include_bytes!("../data/ballnet.safetensors");
 
 /// The two-stage detector's weights, the candidate network and the grey checker
-/// (safetensors).
-pub const DETECTOR: &[u8] = include_bytes!("../data/detector.safetensors");
+/// (safetensors; the detector's own, which its candidate stage loads by itself).
+pub const DETECTOR: &[u8] = crate::detection::heatnet::SHIPPED_WEIGHTS;
 
 /// Why a shipped model does not load.
 #[derive(Debug, Error)]

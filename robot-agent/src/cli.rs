@@ -31,6 +31,7 @@ mod calibrate_colour_cmd;
 mod camera_args;
 pub(crate) mod detect_cmd;
 mod evaluate_cmd;
+mod files;
 mod pr_chart;
 mod run_cmd;
 #[cfg(feature = "train")]

@@ -8,6 +8,7 @@
 //! counted; the run goes on and fails at the end if any photo did.
 
 use super::camera_args::{CameraArgs, PhotoCamera};
+use super::files::relative_name;
 use crate::detection::detect::{CandidateClassifier, Detector, NoClock};
 use crate::detection::photo::{PhotoCandidate, detect_photo, overlay};
 use crate::labels::prelabel::{self, LabelFormat};
@@ -248,22 +249,6 @@ fn lines_out(path: Option<&Path>) -> Result<Box<dyn Write>> {
     })
 }
 
-/// A photo's path below the photos' folder, with `/` between folders (its file name when
-/// it is not below it).
-pub(crate) fn relative_name(path: &Path, images: &Path) -> String {
-    match path.strip_prefix(images) {
-        Ok(rel) => rel
-            .components()
-            .map(|c| c.as_os_str().to_string_lossy().into_owned())
-            .collect::<Vec<_>>()
-            .join("/"),
-        Err(_) => path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-    }
-}
-
 /// `--write-labels`: the label files and the review list.
 struct LabelWriter {
     format: LabelFormat,
@@ -484,13 +469,7 @@ mod tests {
     }
 
     #[test]
-    fn photos_in_subfolders_keep_their_folders_in_their_names() {
-        let images = Path::new("/data/set");
-        assert_eq!(
-            relative_name(Path::new("/data/set/e1/r2/a.jpg"), images),
-            "e1/r2/a.jpg"
-        );
-        assert_eq!(relative_name(Path::new("/other/b.png"), images), "b.png");
+    fn review_names_are_quoted_where_csv_needs_it() {
         assert_eq!(csv_field("a,b.jpg"), "\"a,b.jpg\"");
         assert_eq!(csv_field("plain.jpg"), "plain.jpg");
     }

@@ -6,7 +6,7 @@
 
 use crate::cli::evaluate::{EvaluateOptions, evaluate_items};
 use crate::cli::labelled::{LabelledArgs, LabelledFolder};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
@@ -34,12 +34,7 @@ pub struct EvaluateArgs {
     pub verbose: bool,
 }
 
-fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)?;
-    }
-    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
-}
+use crate::cli::files::write_file;
 
 pub fn run(args: EvaluateArgs) -> Result<()> {
     let mut config = crate::runtime::models::load_config(args.config.as_deref())?;

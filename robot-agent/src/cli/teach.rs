@@ -295,7 +295,7 @@ pub fn label_folder(
     let mut last_line = Instant::now();
     let mut fresh = 0usize;
     for (k, path) in files.iter().enumerate() {
-        let name = crate::cli::detect_cmd::relative_name(path, images);
+        let name = crate::cli::files::relative_name(path, images);
         if let Some(mut r) = known.remove(&name) {
             // As the teacher gave them, whatever a student or a recording's frames made
             // of them in the run that wrote them.
@@ -483,9 +483,9 @@ pub fn write_outputs(out: &Path, output: LabelOutput, labels: &FolderLabels) -> 
         )
         .with_context(|| format!("writing {}", path.display()))?;
     }
-    crate::cli::train_cmd::write_file(&out.join("teacher-labels.jsonl"), jsonl.as_bytes())?;
+    crate::cli::files::write_file(&out.join("teacher-labels.jsonl"), jsonl.as_bytes())?;
     let doubtful: String = labels.doubtful().into_iter().map(|n| n + "\n").collect();
-    crate::cli::train_cmd::write_file(&out.join("doubtful.txt"), doubtful.as_bytes())?;
+    crate::cli::files::write_file(&out.join("doubtful.txt"), doubtful.as_bytes())?;
     if format == LabelFormat::Yolo {
         let classes = out.join("classes.txt");
         if !classes.exists() {
@@ -558,7 +558,7 @@ pub fn contact_sheet(images: &Path, records: &[LabelRecord], path: &Path) -> Res
         }
     }
     let png = crate::io::image_io::encode_png(&sheet)?;
-    crate::cli::train_cmd::write_file(path, &png)
+    crate::cli::files::write_file(path, &png)
 }
 
 /// Up to `n` of `items`, evenly spread.

@@ -3,6 +3,7 @@
 //! classifier from the same photos or from folders of ball and non-ball patches.
 
 use crate::cli::detector_train::{DetectorTraining, train_detector};
+use crate::cli::files::{relative_name, write_file};
 use crate::cli::labelled::{Item, LabelledArgs, LabelledFolder};
 use crate::cli::net_train::{held_out, train_on_photos};
 use crate::cli::train::{fit_and_write, folder_patches, labelled_folder_patches};
@@ -150,19 +151,6 @@ const LEND_MAX_GAP: usize = 3;
 /// Epochs of each stage when fine-tuning a detector.
 const FINE_TUNE_CANDIDATE_EPOCHS: usize = 12;
 const FINE_TUNE_CHECKER_EPOCHS: usize = 8;
-
-/// Writes a file whole or not at all: to a temporary file beside it, then renamed over
-/// it, so a model already there is replaced only by a complete one.
-pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)?;
-    }
-    let mut partial = path.as_os_str().to_owned();
-    partial.push(".partial");
-    let partial = PathBuf::from(partial);
-    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
-    std::fs::rename(&partial, path).with_context(|| format!("writing {}", path.display()))
-}
 
 pub fn run(args: TrainArgs) -> Result<()> {
     let kind = args.model.unwrap_or(if args.positives.is_some() {
@@ -468,7 +456,7 @@ fn taught_folder(
         ..labelled.clone()
     })?;
     taught.items.retain(|i| {
-        let name = crate::cli::detect_cmd::relative_name(&i.image, &images);
+        let name = relative_name(&i.image, &images);
         !doubtful.contains(&name)
     });
     taught.not_balls = labels

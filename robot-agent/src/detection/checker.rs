@@ -11,7 +11,7 @@
 //! run as one batch ([`Checker::judge_all`]).
 
 use crate::detection::ballnet::Verdict;
-use crate::detection::detect::CandidateClassifier;
+use crate::detection::check::CandidateClassifier;
 use crate::detection::hough::Circle;
 use crate::detection::nn::{Act, Conv, WeightsError, WeightsFile, max_pool2};
 use crate::detection::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};

@@ -9,7 +9,7 @@
 //! colour and the patches' together.
 
 use crate::detection::ballnet::BallNet;
-use crate::detection::detect::CandidateClassifier;
+use crate::detection::check::CandidateClassifier;
 use crate::detection::hog::hog;
 use crate::detection::hough::Circle;
 use crate::detection::hsv::HsvThresholds;

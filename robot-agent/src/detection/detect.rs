@@ -164,9 +164,9 @@ impl Detector {
         config.candidates.check().map_err(DetectError::Candidates)?;
         let heat = match net {
             Some(n) => Some(std::sync::Arc::new(n)),
-            None if config.proposer.net() => {
-                Some(std::sync::Arc::new(crate::builtin::candidate_net()?))
-            }
+            None if config.proposer.net() => Some(std::sync::Arc::new(HeatNet::from_safetensors(
+                crate::detection::heatnet::SHIPPED_WEIGHTS,
+            )?)),
             None => None,
         };
         Ok(Detector {
