@@ -195,6 +195,43 @@ fn the_ball_network_learns_from_the_teacher_and_labelled_photos_beside() {
 }
 
 #[test]
+fn the_teachers_labels_are_held_against_the_label_files_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("net.safetensors");
+    let out = agent(&[
+        "train",
+        "--model",
+        "cnn",
+        "--teacher",
+        "--images",
+        repo("tests/data/real-balls/images").to_str().unwrap(),
+        "--labels",
+        repo("tests/data/real-balls/labels").to_str().unwrap(),
+        "--teacher-passes",
+        "quick",
+        "--hold-out",
+        "none",
+        "--epochs",
+        "1",
+        "--student-rounds",
+        "0",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    // The football of messi5 is the one ball the teacher is sure of, and a person
+    // labelled it too.
+    assert!(
+        stderr.contains(
+            "against the label files beside the photos, in the 1 photos kept for training: \
+             1 of the teacher's 1 balls are on theirs (100.0 %)"
+        ),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn a_broken_teacher_or_an_empty_folder_says_so_and_keeps_the_model() {
     let dir = tempfile::tempdir().unwrap();
     let photos = unlabelled_photos(dir.path());

@@ -282,7 +282,11 @@ impl LabelledFolder {
 
     /// The labels of an item whose image is `image`.
     pub fn labels(&self, item: &Item, image: &RgbImage) -> Result<ImageLabels> {
-        let (w, h) = (image.width(), image.height());
+        self.labels_sized(item, image.width(), image.height())
+    }
+
+    /// The labels of an item whose image is `w` × `h` pixels.
+    pub fn labels_sized(&self, item: &Item, w: u32, h: u32) -> Result<ImageLabels> {
         let Some(path) = &item.label else {
             return Ok(ImageLabels {
                 width_px: w,

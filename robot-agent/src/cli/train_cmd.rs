@@ -180,6 +180,53 @@ struct TeacherTaught {
     labels: crate::cli::teach::FolderLabels,
     /// `--images` (a recording's frames for `--source`).
     labelled: LabelledArgs,
+    /// The photos with the label files beside them, when `--teacher` labelled photos that
+    /// had some: the teacher's labels are held against them.
+    theirs: Option<LabelledFolder>,
+}
+
+impl TeacherTaught {
+    /// The teacher's labels of the photos kept for training against the label files beside
+    /// them (when there are some), printed: how far to trust them.
+    fn report_against(&self) -> Result<()> {
+        let Some(theirs) = &self.theirs else {
+            return Ok(());
+        };
+        let images = teacher_images(&self.labelled)?;
+        let items: BTreeMap<PathBuf, &Item> = theirs
+            .items
+            .iter()
+            .filter(|i| i.label.is_some())
+            .map(|i| (i.image.clone(), i))
+            .collect();
+        let mut total = crate::labels::teacher::Against::default();
+        let mut photos = 0;
+        for r in self.labels.records.iter().filter(|r| r.certain()) {
+            let Some(item) = items.get(&images.join(&r.photo)) else {
+                continue;
+            };
+            let Ok(l) = theirs.labels_sized(item, r.width_px, r.height_px) else {
+                continue;
+            };
+            total += crate::labels::teacher::against(&r.ball_boxes(), &l.balls);
+            photos += 1;
+        }
+        if photos > 0 {
+            let pct = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
+            eprintln!(
+                "against the label files beside the photos, in the {photos} photos kept for \
+                 training: {} of the teacher's {} balls are on theirs ({:.1} %); {} of their {} \
+                 balls are taught as balls ({:.1} %), the rest as background",
+                total.right,
+                total.taught,
+                pct(total.right, total.taught),
+                total.right,
+                total.theirs,
+                pct(total.right, total.theirs)
+            );
+        }
+        Ok(())
+    }
 }
 
 impl Split {
@@ -218,6 +265,7 @@ impl Split {
                 taught: Some(TeacherTaught {
                     labels,
                     labelled: args.labelled.clone(),
+                    theirs: None,
                 }),
                 also,
             });
@@ -226,11 +274,15 @@ impl Split {
         let mut taught = None;
         if args.teacher || folder.unlabelled() {
             let (f, labels) = teacher_labelled(args, &folder, None)?;
+            let theirs = (!folder.unlabelled()).then_some(folder);
             folder = f;
-            taught = Some(TeacherTaught {
+            let t = TeacherTaught {
                 labels,
                 labelled: args.labelled.clone(),
-            });
+                theirs,
+            };
+            t.report_against()?;
+            taught = Some(t);
         }
         let val_folder = match &args.val {
             Some(dir) => Some(LabelledFolder::open(&LabelledArgs {
@@ -266,9 +318,12 @@ impl Split {
         args: &TrainArgs,
         judge: impl Fn(&crate::image::RgbImage, &crate::detection::hough::Circle) -> Option<f64>,
     ) -> Result<()> {
-        let Some(TeacherTaught { labels, labelled }) = self.taught.as_mut() else {
+        let Some(taught) = self.taught.as_mut() else {
             return Ok(());
         };
+        let TeacherTaught {
+            labels, labelled, ..
+        } = taught;
         let images = teacher_images(labelled)?;
         let how = crate::labels::teacher::Agreement {
             one_ball: !args.teacher_args.teacher_several_balls,
@@ -287,7 +342,7 @@ impl Split {
         crate::cli::teach::write_outputs(&out, teacher_output(args), labels)?;
         crate::cli::teach::contact_sheet(&images, &labels.records, &out.join("contact-sheet.png"))?;
         self.folder = taught_folder(labelled, &out, labels)?;
-        Ok(())
+        taught.report_against()
     }
 
     /// Training items, and the held-out folder with its items: the `--hold-out` folders'

@@ -286,6 +286,45 @@ pub fn settle(
     out
 }
 
+/// The teacher's labels of photos against a person's labels of the same photos.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Against {
+    /// The teacher's balls, and those whose centre lies in a person's ball (one each:
+    /// so also the person's balls the teacher labelled).
+    pub taught: usize,
+    pub right: usize,
+    /// The person's balls.
+    pub theirs: usize,
+}
+
+impl std::ops::AddAssign for Against {
+    fn add_assign(&mut self, o: Against) {
+        self.taught += o.taught;
+        self.right += o.right;
+        self.theirs += o.theirs;
+    }
+}
+
+/// One photo's balls as the teacher labelled them (`taught`) against a person's
+/// (`theirs`): a taught ball is right when its centre lies in a person's ball no other
+/// taught ball took.
+pub fn against(taught: &[BallBox], theirs: &[BallBox]) -> Against {
+    let mut taken = vec![false; theirs.len()];
+    let mut right = 0;
+    for t in taught {
+        let c = t.centre_px();
+        if let Some(k) = (0..theirs.len()).find(|&k| !taken[k] && theirs[k].contains(c)) {
+            taken[k] = true;
+            right += 1;
+        }
+    }
+    Against {
+        taught: taught.len(),
+        right,
+        theirs: theirs.len(),
+    }
+}
+
 fn distance(a: &BallBox, b: &BallBox) -> f64 {
     let (p, q) = (a.centre_px(), b.centre_px());
     (p[0] - q[0]).hypot(p[1] - q[1])
@@ -401,6 +440,23 @@ mod tests {
         let mut many = frame(0.0, vec![], vec![taught(5.0, 0.3), taught(200.0, 0.2)]).1;
         assert_eq!(settle(&mut many, &several, both).promoted, 2);
         assert!(many.certain());
+    }
+
+    #[test]
+    fn the_teachers_labels_are_held_against_a_persons() {
+        let b = |x: f64| taught(x, 0.9).ball_box;
+        // Right on the first ball, beside the second, and nothing on the third.
+        let a = against(&[b(1.0), b(100.0)], &[b(0.0), b(50.0), b(200.0)]);
+        assert_eq!(
+            a,
+            Against {
+                taught: 2,
+                right: 1,
+                theirs: 3
+            }
+        );
+        // Two boxes on one ball: one is right.
+        assert_eq!(against(&[b(1.0), b(2.0)], &[b(0.0)]).right, 1);
     }
 
     #[test]
