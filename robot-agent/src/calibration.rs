@@ -12,7 +12,7 @@
 
 mod bundle;
 pub mod calibrate;
-pub mod camera;
+pub use vision::camera;
 pub mod chessboard;
 #[cfg(test)]
 mod fixtures;

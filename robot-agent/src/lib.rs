@@ -8,10 +8,10 @@
 //! line over it ([`cli::main`]).
 //!
 //! This root is the crate's front door; behind it, private modules, one per concern:
-//! calibration (camera models, chessboards, [`calibrate_with`]), detection (one frame to
-//! ball candidates, one stage per module: [`Detector`], the classifiers [`BallNet`] and
-//! [`SvmModel`]), training (the learned stages' training, apart from what the robot
-//! runs), projection (pixel to floor point with its covariance, and the MiRo's
+//! calibration (chessboards, [`calibrate_with`]), detection (the `vision` crate's stages,
+//! one frame to ball candidates: [`Detector`], the classifiers [`BallNet`] and
+//! [`SvmModel`], re-exported here), training (the learned stages' training, apart from
+//! what the robot runs), projection (pixel to floor point with its covariance, and the MiRo's
 //! kinematics), the image buffers ([`RgbImage`], [`GrayImage`]), the pipeline of one frame
 //! and the [`Agent`] between frames (with each camera's perception counters), a camera's
 //! view for people watching ([`camera_view`]), image files and ROS messages ([`ros_msg`]),
@@ -48,8 +48,8 @@ pub mod builtin;
 mod calibration;
 mod camera_counters;
 pub mod cli;
-mod detection;
-mod image;
+use vision as detection;
+use vision::image;
 mod io;
 pub mod labels;
 mod pipeline;

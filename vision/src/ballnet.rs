@@ -1,0 +1,393 @@
+//! The ball network: a small convolutional network that looks at one candidate's colour
+//! patch and says whether it is a ball, and where the ball's centre and edge are.
+//!
+//! The design follows the patch networks of the RoboCup standard platform league: a
+//! 32×32 colour patch of the window around a proposal (`WINDOW_OVER_RADIUS` × its radius
+//! wide), three 3×3 convolutions of stride 2 (3→8→16→16 channels, ReLU) down to 4×4, a
+//! hidden layer of 32 and four outputs: the ball's logit, its centre's offset from the
+//! proposal's in units of the proposal's radius, and the log of its radius over the
+//! proposal's. About 0.17 M multiply-adds a patch.
+//!
+//! The forward pass is written here for these tiny channel counts rather than run through
+//! a general tensor runtime, whose per-operation overhead dominates on tensors this small:
+//! activations are row-major with the channels innermost, weights are stored
+//! `[ky][kx][in][out]` so that the innermost loop runs over contiguous output channels.
+//! The training crate's forward pass is checked against this one in the training module's
+//! tests.
+//!
+//! Weights are a safetensors file in the training crate's layout (convolutions
+//! `[out, in, ky, kx]`, dense layers `[out, in]`, the first dense layer's inputs in
+//! channel-major order) with metadata naming the format; a file for another architecture,
+//! or a truncated one, is refused with what was wrong.
+
+use crate::hough::Circle;
+use crate::image::RgbImage;
+use crate::nn::{WeightsError, WeightsFile};
+use crate::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};
+use std::collections::BTreeMap;
+
+/// The format named in a weights file's metadata.
+pub const FORMAT: &str = "ballnet-v1";
+
+/// The patch window's side over the proposal's radius.
+pub const WINDOW_OVER_RADIUS: f64 = 3.0;
+
+/// Input channels and output channels of the three convolutions.
+pub const CONVOLUTIONS: [(usize, usize); 3] = [(3, 8), (8, 16), (16, 16)];
+
+/// Units of the hidden dense layer.
+pub const HIDDEN: usize = 32;
+
+/// Outputs: logit, centre offset x and y (proposal radii), log radius ratio.
+pub const OUTPUTS: usize = 4;
+
+/// Side of the last convolution's output.
+pub const LAST_SIDE: usize = PATCH_SIDE_PX >> CONVOLUTIONS.len();
+
+/// Inputs of the hidden layer.
+pub const FLAT: usize = LAST_SIDE * LAST_SIDE * CONVOLUTIONS[2].1;
+
+/// Why a weights file cannot be used (the detector's networks share the reasons).
+pub type BallNetError = WeightsError;
+
+/// One 3×3 stride-2 convolution, weights `[ky][kx][in][out]`.
+#[derive(Debug, Clone, PartialEq)]
+struct Conv {
+    cin: usize,
+    cout: usize,
+    weights: Vec<f32>,
+    bias: Vec<f32>,
+}
+
+/// One dense layer, weights `[in][out]`.
+#[derive(Debug, Clone, PartialEq)]
+struct Dense {
+    cout: usize,
+    weights: Vec<f32>,
+    bias: Vec<f32>,
+}
+
+/// What the network says of one patch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Verdict {
+    /// The ball's logit; its probability is the logistic of it.
+    pub logit: f32,
+    /// The ball's centre minus the proposal's, proposal radii, x right and y down.
+    pub offset: [f32; 2],
+    /// ln(ball radius / proposal radius).
+    pub log_scale: f32,
+}
+
+impl Verdict {
+    pub fn probability(&self) -> f64 {
+        1.0 / (1.0 + (-f64::from(self.logit)).exp())
+    }
+
+    /// The ball's circle, given the proposal it was asked about.
+    pub fn refine(&self, proposal: &Circle) -> Circle {
+        let r = proposal.radius_px;
+        // The net's corrections are bounded so a wild output cannot move a ball far away.
+        let dx = f64::from(self.offset[0]).clamp(-1.0, 1.0);
+        let dy = f64::from(self.offset[1]).clamp(-1.0, 1.0);
+        let ds = f64::from(self.log_scale).clamp(-1.0, 1.0);
+        Circle {
+            center_px: [
+                proposal.center_px[0] + dx * r,
+                proposal.center_px[1] + dy * r,
+            ],
+            radius_px: r * ds.exp(),
+            score: proposal.score,
+        }
+    }
+}
+
+/// The network, ready to run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BallNet {
+    convs: Vec<Conv>,
+    hidden: Dense,
+    output: Dense,
+    /// The file's metadata (training data, held-out score, ...).
+    metadata: BTreeMap<String, String>,
+}
+
+/// The network's input for a patch: the patch's values in [0, 1], less their mean, over
+/// their spread (plus a floor, so that a flat patch is not blown up into noise), rows of
+/// pixels with the three channels innermost. Training uses the same function.
+pub fn input(patch: &RgbPatch) -> Vec<f32> {
+    let data = patch.data();
+    let n = data.len() as f32;
+    let mean = data.iter().map(|&v| f32::from(v)).sum::<f32>() / n / 255.0;
+    let var = data
+        .iter()
+        .map(|&v| {
+            let d = f32::from(v) / 255.0 - mean;
+            d * d
+        })
+        .sum::<f32>()
+        / n;
+    let scale = 1.0 / (var.sqrt() + 0.02);
+    data.iter()
+        .map(|&v| (f32::from(v) / 255.0 - mean) * scale)
+        .collect()
+}
+
+/// The patch the network sees for a proposal.
+pub fn patch_for(image: &RgbImage, circle: &Circle) -> Option<RgbPatch> {
+    let cfg = PatchConfig {
+        window_over_radius: WINDOW_OVER_RADIUS,
+    };
+    extract_rgb(image, circle.center_px, circle.radius_px, &cfg).ok()
+}
+
+fn conv_s2(input: &[f32], side: usize, layer: &Conv, out: &mut Vec<f32>) {
+    let (cin, cout) = (layer.cin, layer.cout);
+    let os = side / 2;
+    out.clear();
+    out.resize(os * os * cout, 0.0);
+    for oy in 0..os {
+        for ox in 0..os {
+            let acc = &mut out[(oy * os + ox) * cout..][..cout];
+            acc.copy_from_slice(&layer.bias);
+            for ky in 0..3 {
+                let Some(iy) = (2 * oy + ky).checked_sub(1).filter(|&y| y < side) else {
+                    continue;
+                };
+                for kx in 0..3 {
+                    let Some(ix) = (2 * ox + kx).checked_sub(1).filter(|&x| x < side) else {
+                        continue;
+                    };
+                    let px = &input[(iy * side + ix) * cin..][..cin];
+                    let wk = &layer.weights[(ky * 3 + kx) * cin * cout..][..cin * cout];
+                    for (&v, row) in px.iter().zip(wk.chunks_exact(cout)) {
+                        for (a, &w) in acc.iter_mut().zip(row) {
+                            *a += v * w;
+                        }
+                    }
+                }
+            }
+            for a in acc.iter_mut() {
+                *a = a.max(0.0);
+            }
+        }
+    }
+}
+
+fn dense(input: &[f32], layer: &Dense, relu: bool, out: &mut Vec<f32>) {
+    out.clear();
+    out.extend_from_slice(&layer.bias);
+    for (&v, row) in input.iter().zip(layer.weights.chunks_exact(layer.cout)) {
+        if v == 0.0 {
+            continue;
+        }
+        for (a, &w) in out.iter_mut().zip(row) {
+            *a += v * w;
+        }
+    }
+    if relu {
+        for a in out.iter_mut() {
+            *a = a.max(0.0);
+        }
+    }
+}
+
+impl BallNet {
+    /// The network of a weights file's bytes.
+    pub fn from_safetensors(bytes: &[u8]) -> Result<Self, BallNetError> {
+        let file = WeightsFile::read(bytes, FORMAT)?;
+        let tensor = |name: &str, shape: &[usize]| file.tensor(name, shape);
+        let mut convs = Vec::new();
+        for (k, &(cin, cout)) in CONVOLUTIONS.iter().enumerate() {
+            let name = format!("conv{}", k + 1);
+            let w = tensor(&format!("{name}.weight"), &[cout, cin, 3, 3])?;
+            let bias = tensor(&format!("{name}.bias"), &[cout])?;
+            // [out][in][ky][kx] to [ky][kx][in][out].
+            let mut weights = vec![0f32; w.len()];
+            for o in 0..cout {
+                for i in 0..cin {
+                    for ky in 0..3 {
+                        for kx in 0..3 {
+                            weights[((ky * 3 + kx) * cin + i) * cout + o] =
+                                w[((o * cin + i) * 3 + ky) * 3 + kx];
+                        }
+                    }
+                }
+            }
+            convs.push(Conv {
+                cin,
+                cout,
+                weights,
+                bias,
+            });
+        }
+        let channels = CONVOLUTIONS[2].1;
+        let cells = LAST_SIDE * LAST_SIDE;
+        let w = tensor("fc1.weight", &[HIDDEN, FLAT])?;
+        let mut weights = vec![0f32; w.len()];
+        for o in 0..HIDDEN {
+            for c in 0..channels {
+                for cell in 0..cells {
+                    // The training crate flattens channel-major; the forward pass here is
+                    // cell-major with the channels innermost.
+                    weights[(cell * channels + c) * HIDDEN + o] = w[o * FLAT + c * cells + cell];
+                }
+            }
+        }
+        let hidden = Dense {
+            cout: HIDDEN,
+            weights,
+            bias: tensor("fc1.bias", &[HIDDEN])?,
+        };
+        let w = tensor("fc2.weight", &[OUTPUTS, HIDDEN])?;
+        let mut weights = vec![0f32; w.len()];
+        for o in 0..OUTPUTS {
+            for i in 0..HIDDEN {
+                weights[i * OUTPUTS + o] = w[o * HIDDEN + i];
+            }
+        }
+        let output = Dense {
+            cout: OUTPUTS,
+            weights,
+            bias: tensor("fc2.bias", &[OUTPUTS])?,
+        };
+        Ok(BallNet {
+            convs,
+            hidden,
+            output,
+            metadata: file.metadata().clone(),
+        })
+    }
+
+    /// The file's metadata: format, training data, held-out score.
+    pub fn metadata(&self) -> &BTreeMap<String, String> {
+        &self.metadata
+    }
+
+    /// The network's outputs for an input from [`input`].
+    pub fn forward(&self, input: &[f32]) -> Verdict {
+        let mut a = input.to_vec();
+        let mut b = Vec::new();
+        let mut side = PATCH_SIDE_PX;
+        for conv in &self.convs {
+            conv_s2(&a, side, conv, &mut b);
+            std::mem::swap(&mut a, &mut b);
+            side /= 2;
+        }
+        dense(&a, &self.hidden, true, &mut b);
+        dense(&b, &self.output, false, &mut a);
+        Verdict {
+            logit: a[0],
+            offset: [a[1], a[2]],
+            log_scale: a[3],
+        }
+    }
+
+    /// The verdict on a proposal in an image, or `None` when no patch can be cut.
+    pub fn judge(&self, image: &RgbImage, circle: &Circle) -> Option<Verdict> {
+        let patch = patch_for(image, circle)?;
+        Some(self.forward(&input(&patch)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use std::collections::HashMap;
+
+    /// A weights file with the given shapes, every value from `value(tensor, index)`.
+    fn file(shapes: &[(&str, Vec<usize>)], format: &str) -> Vec<u8> {
+        let bufs: Vec<(String, Vec<usize>, Vec<u8>)> = shapes
+            .iter()
+            .enumerate()
+            .map(|(t, (name, shape))| {
+                let n: usize = shape.iter().product();
+                let bytes = (0..n)
+                    .flat_map(|i| (((i * 7 + t * 3) % 11) as f32 * 0.01 - 0.05).to_le_bytes())
+                    .collect();
+                (name.to_string(), shape.clone(), bytes)
+            })
+            .collect();
+        let views: Vec<(String, safetensors::tensor::TensorView<'_>)> = bufs
+            .iter()
+            .map(|(n, s, b)| {
+                (
+                    n.clone(),
+                    safetensors::tensor::TensorView::new(safetensors::Dtype::F32, s.clone(), b)
+                        .unwrap(),
+                )
+            })
+            .collect();
+        let meta: HashMap<String, String> = [("format".to_string(), format.to_string())].into();
+        safetensors::serialize(views, Some(meta)).unwrap()
+    }
+
+    fn shapes() -> Vec<(&'static str, Vec<usize>)> {
+        let [(i1, o1), (i2, o2), (i3, o3)] = CONVOLUTIONS;
+        vec![
+            ("conv1.weight", vec![o1, i1, 3, 3]),
+            ("conv1.bias", vec![o1]),
+            ("conv2.weight", vec![o2, i2, 3, 3]),
+            ("conv2.bias", vec![o2]),
+            ("conv3.weight", vec![o3, i3, 3, 3]),
+            ("conv3.bias", vec![o3]),
+            ("fc1.weight", vec![HIDDEN, FLAT]),
+            ("fc1.bias", vec![HIDDEN]),
+            ("fc2.weight", vec![OUTPUTS, HIDDEN]),
+            ("fc2.bias", vec![OUTPUTS]),
+        ]
+    }
+
+    #[test]
+    fn a_well_formed_file_loads_and_runs() {
+        let net = BallNet::from_safetensors(&file(&shapes(), FORMAT)).unwrap();
+        let patch = RgbPatch::from_fn_rgb(|x, y| [(x * 8) as u8, (y * 8) as u8, 90]);
+        let v = net.forward(&input(&patch));
+        assert!(v.logit.is_finite() && v.log_scale.is_finite());
+        assert!((0.0..=1.0).contains(&v.probability()));
+    }
+
+    #[test]
+    fn bad_files_say_what_is_wrong() {
+        assert!(matches!(
+            BallNet::from_safetensors(b"not a model"),
+            Err(BallNetError::Format(_))
+        ));
+        let good = file(&shapes(), FORMAT);
+        assert!(matches!(
+            BallNet::from_safetensors(&good[..good.len() - 10]),
+            Err(BallNetError::Format(_))
+        ));
+        assert!(matches!(
+            BallNet::from_safetensors(&file(&shapes(), "yolo")),
+            Err(BallNetError::WrongFormat { .. })
+        ));
+        let mut other = shapes();
+        other[0].1 = vec![8, 1, 3, 3];
+        let e = BallNet::from_safetensors(&file(&other, FORMAT)).unwrap_err();
+        assert!(e.to_string().contains("conv1.weight"), "{e}");
+        let mut missing = shapes();
+        missing.pop();
+        assert_eq!(
+            BallNet::from_safetensors(&file(&missing, FORMAT)),
+            Err(BallNetError::Missing("fc2.bias".into()))
+        );
+    }
+
+    #[test]
+    fn refinement_is_bounded() {
+        let v = Verdict {
+            logit: 0.0,
+            offset: [5.0, -0.5],
+            log_scale: 0.2,
+        };
+        let c = v.refine(&Circle {
+            center_px: [100.0, 50.0],
+            radius_px: 10.0,
+            score: 1.0,
+        });
+        assert_eq!(c.center_px, [110.0, 45.0]);
+        assert!((c.radius_px - 10.0 * 0.2f64.exp()).abs() < 1e-5);
+        assert_eq!(v.probability(), 0.5);
+    }
+}
