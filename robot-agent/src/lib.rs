@@ -84,8 +84,7 @@ pub use pipeline::{FrameResult, ScoredCandidate, ValidationConfig};
 pub use runtime::frame::{RobotState, StoredFrame};
 pub use runtime::models::{
     ClassifierArgs, DetectorPreset, candidate_net as load_candidate_net,
-    classifier as load_classifier, detector as load_detector, is_detector_file, load_config,
-    load_models,
+    classifier as load_classifier, detector as load_detector, load_config, load_models,
 };
 pub use runtime::ros_frames::RosTopics;
 pub use runtime::source::{FrameSource, McapSource};

@@ -23,7 +23,7 @@ use std::collections::BTreeMap;
 /// The shipped two-stage detector's weights (the candidate network and the grey checker,
 /// safetensors), made by `robot-agent train` (the command and held-out score are in the
 /// file's metadata).
-pub const SHIPPED_WEIGHTS: &[u8] = include_bytes!("../../robot-agent/data/detector.safetensors");
+pub const SHIPPED_WEIGHTS: &[u8] = include_bytes!("../data/detector.safetensors");
 
 /// The format named in a two-stage detector's weights file.
 pub const FORMAT: &str = "ball-detector-v1";

@@ -173,6 +173,9 @@ struct Split {
     taught: Option<TeacherTaught>,
     /// `--also`'s folders, trained on as they are.
     also: Vec<LabelledFolder>,
+    /// The part held out when none is named, chosen once (the student's rounds change
+    /// the photos, not the choice).
+    auto_hold_out: std::cell::OnceCell<AutoHoldOut>,
 }
 
 /// The teacher's labels of the training photos, and the photos as opened.
@@ -268,6 +271,7 @@ impl Split {
                     theirs: None,
                 }),
                 also,
+                auto_hold_out: Default::default(),
             });
         }
         let mut folder = LabelledFolder::open_unlabelled(&args.labelled)?;
@@ -297,6 +301,7 @@ impl Split {
             val_folder,
             taught,
             also,
+            auto_hold_out: Default::default(),
         })
     }
 
@@ -363,13 +368,17 @@ impl Split {
             described.clear();
             (Vec::new(), self.folder.items.iter().collect())
         } else if hold_out.is_empty() {
-            let choice = automatic_hold_out(&self.folder.items);
+            let choice = self.auto_hold_out.get_or_init(|| {
+                let choice = automatic_hold_out(&self.folder.items);
+                eprintln!(
+                    "nothing named to hold out: holding out {}; name event folders with \
+                     --hold-out (or a folder with --val) to choose, --hold-out none to train \
+                     on every photo",
+                    choice.describe(&self.folder.items)
+                );
+                choice
+            });
             described = choice.describe(&self.folder.items);
-            eprintln!(
-                "nothing named to hold out: holding out {described}; name event folders \
-                 with --hold-out (or a folder with --val) to choose, --hold-out none to \
-                 train on every photo"
-            );
             let (mut val, mut train) = (Vec::new(), Vec::new());
             for (k, i) in self.folder.items.iter().enumerate() {
                 if choice.holds(k, i) {

@@ -151,7 +151,7 @@ pub fn classifier(
 }
 
 /// Whether a weights file is a two-stage detector's (by the format its metadata names).
-pub fn is_detector_file(bytes: &[u8]) -> bool {
+fn is_detector_file(bytes: &[u8]) -> bool {
     !matches!(
         crate::detection::nn::WeightsFile::read(bytes, crate::detection::heatnet::FORMAT),
         Err(crate::detection::nn::WeightsError::WrongFormat { .. })

@@ -4,7 +4,7 @@
 //! from the ball network's training. Its generated section is marked
 //! `<!-- evaluate-labelled:begin -->` / `…:end -->`.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use eval::photo_eval::{stage_table_head, stage_table_note, stage_table_row};
 use eval::report;
 use robot_agent::DetectorPreset;
@@ -40,15 +40,58 @@ pub struct LabelledEvalArgs {
 
 /// A detector to score: its row name, its settings, and the model file in place of the
 /// shipped one.
-struct Scored {
-    name: String,
-    preset: DetectorPreset,
-    file: Option<PathBuf>,
+pub struct Scored {
+    pub name: String,
+    pub preset: DetectorPreset,
+    pub file: Option<PathBuf>,
 }
 
-/// The shipped detectors, then `--model NAME=FILE`'s.
+impl Scored {
+    /// Its detector and classifier.
+    pub fn load(
+        &self,
+    ) -> Result<(
+        Detector,
+        Box<dyn robot_agent::CandidateClassifier + Send + Sync>,
+    )> {
+        let config = self.preset.apply(DetectorConfig::default());
+        let file = self.file.as_deref();
+        let context = || format!("--beside {}", self.name);
+        Ok((
+            robot_agent::load_detector(&config, file).with_context(context)?,
+            robot_agent::load_classifier(&config, file).with_context(context)?,
+        ))
+    }
+}
+
+/// `--beside`'s models: `shipped` (the photo commands' default), or `NAME=FILE` run as its
+/// file asks (a two-stage detector's file as the two-stage detector, a ball network on the
+/// appearance proposals).
+pub fn beside_models(beside: &[String]) -> Result<Vec<Scored>> {
+    beside
+        .iter()
+        .map(|m| match m.split_once('=') {
+            Some((name, file)) => {
+                let file = PathBuf::from(file);
+                Ok(Scored {
+                    name: name.to_string(),
+                    preset: DetectorPreset::Net.with_model(Some(&file)),
+                    file: Some(file),
+                })
+            }
+            None if m == "shipped" => Ok(Scored {
+                name: "shipped".to_string(),
+                preset: DetectorPreset::Net,
+                file: None,
+            }),
+            None => anyhow::bail!("--beside {m}: give `shipped` or NAME=FILE"),
+        })
+        .collect()
+}
+
+/// The shipped detectors, then `--beside NAME=FILE`'s.
 fn scored(args: &LabelledEvalArgs) -> Result<Vec<Scored>> {
-    let mut out: Vec<Scored> = [
+    let shipped = [
         (DetectorPreset::Net, "net"),
         (DetectorPreset::TwoStage, "two-stage"),
         (DetectorPreset::Colour, "colour"),
@@ -58,27 +101,11 @@ fn scored(args: &LabelledEvalArgs) -> Result<Vec<Scored>> {
         name: name.to_string(),
         preset,
         file: None,
-    })
-    .collect();
-    for m in args.beside.iter().filter(|m| *m != "shipped") {
-        let Some((name, file)) = m.split_once('=') else {
-            anyhow::bail!("--beside {m}: give it as NAME=FILE");
-        };
-        let file = PathBuf::from(file);
-        let bytes = std::fs::read(&file)
-            .map_err(|e| anyhow::anyhow!("--beside {m}: reading {}: {e}", file.display()))?;
-        let preset = if robot_agent::is_detector_file(&bytes) {
-            DetectorPreset::TwoStage
-        } else {
-            DetectorPreset::Net
-        };
-        out.push(Scored {
-            name: name.to_string(),
-            preset,
-            file: Some(file),
-        });
-    }
-    Ok(out)
+    });
+    let trained = beside_models(&args.beside)?
+        .into_iter()
+        .filter(|s| s.file.is_some());
+    Ok(shipped.chain(trained).collect())
 }
 
 /// A photo's event: its top-level subfolder.
@@ -146,11 +173,9 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
     ];
     let mut stage_lines = Vec::new();
     let min_probability = robot_agent::ValidationConfig::default().min_probability;
-    for Scored { name, preset, file } in scored(args)? {
-        let name = name.as_str();
-        let config = preset.apply(DetectorConfig::default());
-        let detector: Detector = robot_agent::load_detector(&config, file.as_deref())?;
-        let classifier = robot_agent::load_classifier(&config, file.as_deref())?;
+    for scored in scored(args)? {
+        let name = scored.name.as_str();
+        let (detector, classifier) = scored.load()?;
         let score = |items: &[&Item], what: &str| {
             evaluate_items(
                 &folder,

@@ -42,28 +42,16 @@ struct Robot {
 }
 
 /// The robot's detectors of `--beside`, scored box by box beside the teacher (every
-/// candidate with its probability): `shipped` for the photo commands' default, or a
-/// trained model as `NAME=FILE`.
+/// candidate with its probability).
 fn robots(beside: &[String]) -> Result<Vec<Robot>> {
-    beside
-        .iter()
-        .map(|b| {
-            let (name, file) = match b.split_once('=') {
-                Some((n, f)) => (n.to_string(), Some(PathBuf::from(f))),
-                None if b == "shipped" => ("shipped".to_string(), None),
-                None => anyhow::bail!("--beside {b}: give `shipped` or NAME=FILE"),
-            };
-            let bytes = file.as_ref().map(std::fs::read).transpose()?;
-            let preset = if bytes.as_deref().is_some_and(robot_agent::is_detector_file) {
-                robot_agent::DetectorPreset::TwoStage
-            } else {
-                robot_agent::DetectorPreset::Net
-            };
-            let config = preset.apply(robot_agent::DetectorConfig::default());
+    crate::labelled_cmd::beside_models(beside)?
+        .into_iter()
+        .map(|s| {
+            let (detector, classifier) = s.load()?;
             Ok(Robot {
-                name,
-                detector: robot_agent::load_detector(&config, file.as_deref())?,
-                classifier: robot_agent::load_classifier(&config, file.as_deref())?,
+                name: s.name,
+                detector,
+                classifier,
             })
         })
         .collect()
