@@ -34,6 +34,7 @@ mod evaluate_cmd;
 mod files;
 mod pr_chart;
 mod run_cmd;
+pub mod service_cmd;
 #[cfg(feature = "train")]
 mod train_cmd;
 
@@ -51,6 +52,8 @@ struct Cli {
 enum Command {
     /// Finds the ball in camera frames and publishes it over Zenoh.
     Run(Box<run_cmd::RunCmdArgs>),
+    /// Runs as the robot's system service does: `run` with every setting from one file.
+    Service(service_cmd::ServiceArgs),
     /// Fits a camera model to chessboard images.
     Calibrate(calibrate_cmd::CalibrateArgs),
     /// Fits the colour detector's window to the balls of labelled photos.
@@ -65,6 +68,22 @@ enum Command {
     Evaluate(Box<evaluate_cmd::EvaluateArgs>),
 }
 
+/// [`main`] as a process's exit status: 1 on an error, [`service_cmd::SETTINGS_EXIT_CODE`]
+/// when the service's settings are wrong (the package's unit does not restart on it).
+pub fn main_exit() -> std::process::ExitCode {
+    match main() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("Error: {e:?}");
+            if e.downcast_ref::<service_cmd::SettingsError>().is_some() {
+                std::process::ExitCode::from(service_cmd::SETTINGS_EXIT_CODE)
+            } else {
+                std::process::ExitCode::FAILURE
+            }
+        }
+    }
+}
+
 /// The `robot-agent` command line: parses the arguments, sets up logging (`RUST_LOG`,
 /// Zenoh's own chatter held to errors) and runs the subcommand.
 pub fn main() -> Result<()> {
@@ -74,6 +93,7 @@ pub fn main() -> Result<()> {
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     match cli.command {
         Command::Run(args) => {
@@ -81,6 +101,12 @@ pub fn main() -> Result<()> {
                 .enable_all()
                 .build()?;
             rt.block_on(run_cmd::run(*args))
+        }
+        Command::Service(args) => {
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .enable_all()
+                .build()?;
+            rt.block_on(service_cmd::run(args))
         }
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::CalibrateColour(args) => calibrate_colour_cmd::run(args),

@@ -1,6 +1,6 @@
 //! The agent's shell: frame sources, the perceive loop and Zenoh. Frames come from a
 //! [`source::FrameSource`] (an image folder, an MCAP recording, a running robot's ROS topics
-//! over Zenoh, or any source another crate implements), go through the pipeline on their
+//! from its ROS 1 master or over Zenoh, or any source another crate implements), go through the pipeline on their
 //! own thread, and the observations and status go out over Zenoh.
 //!
 //! [`run()`] is the whole agent as the `robot-agent run` command runs it; a caller with its
@@ -10,7 +10,9 @@
 //! - [`source`]: the frame-source trait and the image-folder and recording sources.
 //! - [`frames_io`]: the stored frame, image folders with their index, MCAP recordings.
 //! - [`ros_frames`]: a MiRo's ROS recordings as frames and robot states.
-//! - [`live_ros`]: a running MiRo's ROS topics over Zenoh as a live source.
+//! - [`live_ros`]: a running MiRo's ROS topics over Zenoh as a live source, and the inbox
+//!   every live source's messages go through.
+//! - [`ros1_source`]: a running MiRo's topics from its ROS 1 master, no bridge.
 //! - [`models`]: calibrations, pipeline settings and the ball classifier from files.
 //! - [`timer`]: per-stage timings for the status.
 //! - `views`: the camera views' pacing and their encoder thread.
@@ -20,6 +22,7 @@ pub mod frames_io;
 pub mod live_ros;
 pub mod models;
 mod perceive;
+pub mod ros1_source;
 pub mod ros_frames;
 mod run;
 pub mod source;

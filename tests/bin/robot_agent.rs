@@ -1,6 +1,6 @@
 //! The robot agent, built by this package, whose tests run it as a process: cargo gives a
-//! package's tests the paths of its own binaries only. The program is `robot_agent::cli::main`.
+//! package's tests the paths of its own binaries only. The program is `robot_agent::cli::main_exit`.
 
-fn main() -> anyhow::Result<()> {
-    robot_agent::cli::main()
+fn main() -> std::process::ExitCode {
+    robot_agent::cli::main_exit()
 }

@@ -9,9 +9,10 @@ use anyhow::Result;
 #[derive(Debug, clap::Args)]
 pub struct RunCmdArgs {
     /// `images:DIR` (a folder with a frames.jsonl index), `mcap:FILE` (a recording of
-    /// camera images and robot states, or a MiRo's ROS 2 bag or converted ROS 1 bag), or
-    /// `zenoh:ros2` / `zenoh:ros1` (a running MiRo's ROS topics as a Zenoh ROS bridge
-    /// publishes them).
+    /// camera images and robot states, or a MiRo's ROS 2 bag or converted ROS 1 bag),
+    /// `ros1` (a running MiRo's topics from its ROS 1 master: `--ros-master-uri`, else
+    /// `ROS_MASTER_URI`), or `zenoh:ros2` / `zenoh:ros1` (a running MiRo's ROS topics as a
+    /// Zenoh ROS bridge publishes them).
     #[arg(long)]
     pub source: SourceSpec,
     #[command(flatten)]

@@ -8,8 +8,8 @@
 //! of [`RosTopics`]; the pose topic's type is told by its size (a `Pose2D` is three
 //! doubles, anything longer an `Odometry`).
 //!
-//! Each image goes to the pipeline with the latest head joints and pose received before
-//! it. A pipeline that falls behind finds at most [`QUEUE_FRAMES`] frames waiting; later
+//! Each image goes to the pipeline with the head joints and pose stamped at or just before
+//! it (of the last [`STATE_HISTORY`] of each). A pipeline that falls behind finds at most [`QUEUE_FRAMES`] frames waiting; later
 //! ones are dropped and counted, as are messages that cannot be decoded.
 
 use crate::io::ros_msg::{self, Encoding, Header};
@@ -18,6 +18,7 @@ use crate::runtime::ros_frames::{OdomPose, RosTopics, robot_state};
 use crate::runtime::source::FrameSource;
 use anyhow::{Context, Result};
 use proto::{Camera, HeadJoints, Stamp};
+use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError, sync_channel};
 use std::sync::{Arc, Mutex};
@@ -34,11 +35,33 @@ struct Pending {
     state: RobotState,
 }
 
-/// The latest state messages: head joints, and a pose per pose topic (by preference).
+/// The state messages of the last [`STATE_HISTORY`] arrivals per topic, by stamp: an image
+/// takes the latest at or before its own stamp (the earliest kept when all are later).
 #[derive(Debug, Default)]
 struct Latest {
-    head: Option<HeadJoints>,
-    poses: Vec<Option<(Stamp, OdomPose)>>,
+    heads: VecDeque<(Stamp, HeadJoints)>,
+    poses: Vec<VecDeque<(Stamp, OdomPose)>>,
+}
+
+/// State messages kept per topic (a MiRo publishes its joints and pose at 50 Hz: about
+/// 0.3 s).
+pub const STATE_HISTORY: usize = 16;
+
+/// The entry of `history` for an image stamped `at`.
+fn at_or_before<T: Copy>(history: &VecDeque<(Stamp, T)>, at: Stamp) -> Option<(Stamp, T)> {
+    history
+        .iter()
+        .filter(|(s, _)| *s <= at)
+        .max_by_key(|(s, _)| *s)
+        .or_else(|| history.iter().min_by_key(|(s, _)| *s))
+        .copied()
+}
+
+fn remember<T>(history: &mut VecDeque<(Stamp, T)>, stamp: Stamp, value: T) {
+    if history.len() == STATE_HISTORY {
+        history.pop_front();
+    }
+    history.push_back((stamp, value));
 }
 
 /// Counts kept while the source runs.
@@ -49,11 +72,9 @@ struct Counts {
     bad: AtomicU64,
 }
 
-/// A running robot's camera, joint and pose topics.
+/// A running robot's camera, joint and pose topics over Zenoh.
 pub struct LiveRosSource {
-    rx: Receiver<Pending>,
-    stop: Arc<AtomicBool>,
-    counts: Arc<Counts>,
+    frames: RosFrames,
     _subscribers: Vec<zenoh::pubsub::Subscriber<()>>,
 }
 
@@ -120,6 +141,134 @@ fn decode_pose(encoding: Encoding, bytes: &[u8]) -> Result<(Option<Stamp>, OdomP
     ))
 }
 
+/// Where a live source's messages go: the latest joints and poses kept, each image queued
+/// for the pipeline with them (the same for the Zenoh bridge's topics and the MiRo's own
+/// ROS 1 master).
+#[derive(Clone)]
+pub struct RosInbox {
+    tx: SyncSender<Pending>,
+    latest: Arc<Mutex<Latest>>,
+    counts: Arc<Counts>,
+    encoding: Encoding,
+    origin: proto::Pose2,
+}
+
+/// The topic a live message came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RosRole {
+    Image(Camera),
+    Joints,
+    /// The pose topic at this place in `--pose-topic` (the first has priority).
+    Pose(usize),
+}
+
+impl RosInbox {
+    /// The inbox and the frame source that reads it.
+    pub fn new(topics: &RosTopics, encoding: Encoding, stop: Arc<AtomicBool>) -> (Self, RosFrames) {
+        let (tx, rx) = sync_channel::<Pending>(QUEUE_FRAMES);
+        let counts = Arc::new(Counts::default());
+        let inbox = RosInbox {
+            tx,
+            latest: Arc::new(Mutex::new(Latest {
+                heads: VecDeque::new(),
+                poses: vec![VecDeque::new(); topics.pose_topic.len()],
+            })),
+            counts: counts.clone(),
+            encoding,
+            origin: topics.pose_origin,
+        };
+        (inbox, RosFrames { rx, stop, counts })
+    }
+
+    /// The topics to subscribe to, with their roles.
+    pub fn roles(topics: &RosTopics) -> Vec<(String, RosRole)> {
+        let mut roles = vec![
+            (topics.left_topic.clone(), RosRole::Image(Camera::Left)),
+            (topics.right_topic.clone(), RosRole::Image(Camera::Right)),
+            (topics.joints_topic.clone(), RosRole::Joints),
+        ];
+        roles.extend(
+            topics
+                .pose_topic
+                .iter()
+                .enumerate()
+                .map(|(k, t)| (t.clone(), RosRole::Pose(k))),
+        );
+        roles
+    }
+
+    /// One message's bytes; what cannot be decoded is counted and dropped.
+    pub fn receive(&self, role: RosRole, bytes: &[u8]) {
+        let ok = match role {
+            RosRole::Image(camera) => self.image(camera, bytes),
+            RosRole::Joints => self.joints(bytes),
+            RosRole::Pose(k) => self.pose(k, bytes),
+        };
+        if !ok {
+            self.counts.bad.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn image(&self, camera: Camera, bytes: &[u8]) -> bool {
+        let Ok(image) = ros_msg::decode_compressed_image(self.encoding, bytes) else {
+            return false;
+        };
+        let stamp = stamp_or_now(&image.header);
+        let state = match self.latest.lock() {
+            Ok(l) => robot_state(
+                at_or_before(&l.heads, stamp).map(|(_, h)| h),
+                l.poses.iter().find_map(|p| at_or_before(p, stamp)),
+                self.origin,
+            ),
+            Err(_) => return true,
+        };
+        let pending = Pending {
+            stamp,
+            camera,
+            bytes: image.data,
+            state,
+        };
+        self.counts.frames.fetch_add(1, Ordering::Relaxed);
+        if let Err(TrySendError::Full(_)) = self.tx.try_send(pending) {
+            self.counts.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        true
+    }
+
+    fn joints(&self, bytes: &[u8]) -> bool {
+        let Ok(joints) = ros_msg::decode_joint_state(self.encoding, bytes) else {
+            return false;
+        };
+        match (joints.miro_head(), self.latest.lock()) {
+            (Some(h), Ok(mut l)) => {
+                remember(&mut l.heads, stamp_or_now(&joints.header), h);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    fn pose(&self, k: usize, bytes: &[u8]) -> bool {
+        match (decode_pose(self.encoding, bytes), self.latest.lock()) {
+            (Ok((stamp, pose)), Ok(mut l)) => {
+                let stamp = stamp.unwrap_or_else(crate::runtime::wall_now);
+                if let Some(history) = l.poses.get_mut(k) {
+                    remember(history, stamp, pose);
+                }
+                true
+            }
+            _ => false,
+        }
+    }
+}
+
+/// The frames of a live source, decoded on the pipeline's thread.
+pub struct RosFrames {
+    rx: Receiver<Pending>,
+    stop: Arc<AtomicBool>,
+    counts: Arc<Counts>,
+}
+
 impl LiveRosSource {
     /// Subscribes to the topics on `session`.
     pub async fn open(
@@ -129,90 +278,14 @@ impl LiveRosSource {
         key_prefix: &str,
         stop: Arc<AtomicBool>,
     ) -> Result<Self> {
-        let (tx, rx) = sync_channel::<Pending>(QUEUE_FRAMES);
-        let latest = Arc::new(Mutex::new(Latest {
-            head: None,
-            poses: vec![None; topics.pose_topic.len()],
-        }));
-        let counts = Arc::new(Counts::default());
+        let (inbox, frames) = RosInbox::new(topics, encoding, stop);
         let mut subscribers = Vec::new();
-        let origin = topics.pose_origin;
-        for (topic, camera) in [
-            (&topics.left_topic, Camera::Left),
-            (&topics.right_topic, Camera::Right),
-        ] {
-            let (tx, latest, counts): (SyncSender<Pending>, _, _) =
-                (tx.clone(), latest.clone(), counts.clone());
-            let key = topic_key(key_prefix, topic);
+        for (topic, role) in RosInbox::roles(topics) {
+            let inbox = inbox.clone();
+            let key = topic_key(key_prefix, &topic);
             let sub = session
                 .declare_subscriber(key.clone())
-                .callback(move |sample| {
-                    let bytes = sample.payload().to_bytes();
-                    let Ok(image) = ros_msg::decode_compressed_image(encoding, &bytes) else {
-                        counts.bad.fetch_add(1, Ordering::Relaxed);
-                        return;
-                    };
-                    let state = match latest.lock() {
-                        Ok(l) => {
-                            robot_state(l.head, l.poses.iter().flatten().next().copied(), origin)
-                        }
-                        Err(_) => return,
-                    };
-                    let pending = Pending {
-                        stamp: stamp_or_now(&image.header),
-                        camera,
-                        bytes: image.data,
-                        state,
-                    };
-                    counts.frames.fetch_add(1, Ordering::Relaxed);
-                    if let Err(TrySendError::Full(_)) = tx.try_send(pending) {
-                        counts.dropped.fetch_add(1, Ordering::Relaxed);
-                    }
-                })
-                .await
-                .map_err(|e| anyhow::anyhow!("subscribing to {key}: {e}"))?;
-            subscribers.push(sub);
-        }
-        {
-            let (latest, counts) = (latest.clone(), counts.clone());
-            let key = topic_key(key_prefix, &topics.joints_topic);
-            let sub = session
-                .declare_subscriber(key.clone())
-                .callback(move |sample| {
-                    let bytes = sample.payload().to_bytes();
-                    let head = ros_msg::decode_joint_state(encoding, &bytes)
-                        .ok()
-                        .and_then(|j| j.miro_head());
-                    match (head, latest.lock()) {
-                        (Some(h), Ok(mut l)) => l.head = Some(h),
-                        _ => {
-                            counts.bad.fetch_add(1, Ordering::Relaxed);
-                        }
-                    }
-                })
-                .await
-                .map_err(|e| anyhow::anyhow!("subscribing to {key}: {e}"))?;
-            subscribers.push(sub);
-        }
-        for (k, topic) in topics.pose_topic.iter().enumerate() {
-            let (latest, counts) = (latest.clone(), counts.clone());
-            let key = topic_key(key_prefix, topic);
-            let sub = session
-                .declare_subscriber(key.clone())
-                .callback(move |sample| {
-                    let bytes = sample.payload().to_bytes();
-                    match (decode_pose(encoding, &bytes), latest.lock()) {
-                        (Ok((stamp, pose)), Ok(mut l)) => {
-                            let stamp = stamp.unwrap_or_else(crate::runtime::wall_now);
-                            if let Some(slot) = l.poses.get_mut(k) {
-                                *slot = Some((stamp, pose));
-                            }
-                        }
-                        _ => {
-                            counts.bad.fetch_add(1, Ordering::Relaxed);
-                        }
-                    }
-                })
+                .callback(move |sample| inbox.receive(role, &sample.payload().to_bytes()))
                 .await
                 .map_err(|e| anyhow::anyhow!("subscribing to {key}: {e}"))?;
             subscribers.push(sub);
@@ -223,15 +296,23 @@ impl LiveRosSource {
             topic_key(key_prefix, &topics.right_topic)
         );
         Ok(LiveRosSource {
-            rx,
-            stop,
-            counts,
+            frames,
             _subscribers: subscribers,
         })
     }
 }
 
 impl FrameSource for LiveRosSource {
+    fn next_frame(&mut self) -> Result<Option<StoredFrame>> {
+        self.frames.next_frame()
+    }
+
+    fn live(&self) -> bool {
+        true
+    }
+}
+
+impl FrameSource for RosFrames {
     fn next_frame(&mut self) -> Result<Option<StoredFrame>> {
         while !self.stop.load(Ordering::Relaxed) {
             let p = match self.rx.recv_timeout(Duration::from_millis(100)) {
@@ -264,7 +345,7 @@ impl FrameSource for LiveRosSource {
     }
 }
 
-impl Drop for LiveRosSource {
+impl Drop for RosFrames {
     fn drop(&mut self) {
         let c = &self.counts;
         tracing::info!(
@@ -279,6 +360,27 @@ impl Drop for LiveRosSource {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_image_takes_the_state_stamped_at_or_before_it() {
+        let mut h = VecDeque::new();
+        assert_eq!(at_or_before::<u8>(&h, Stamp(5)), None);
+        for (s, v) in [(10, 1u8), (20, 2), (30, 3)] {
+            remember(&mut h, Stamp(s), v);
+        }
+        assert_eq!(at_or_before(&h, Stamp(25)), Some((Stamp(20), 2)));
+        assert_eq!(at_or_before(&h, Stamp(30)), Some((Stamp(30), 3)));
+        assert_eq!(
+            at_or_before(&h, Stamp(5)),
+            Some((Stamp(10), 1)),
+            "all later: the earliest"
+        );
+        for s in 0..STATE_HISTORY as u64 {
+            remember(&mut h, Stamp(100 + s), 9);
+        }
+        assert_eq!(h.len(), STATE_HISTORY);
+        assert_eq!(at_or_before(&h, Stamp(25)), Some((Stamp(100), 9)));
+    }
 
     #[test]
     fn topics_become_keys() {

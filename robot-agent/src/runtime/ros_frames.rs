@@ -40,6 +40,10 @@ pub struct RosTopics {
     /// (metres, radians); the robot's pose when the recording has none.
     #[arg(long, value_parser = parse_pose, default_value = "0,0,0", allow_hyphen_values = true)]
     pub pose_origin: Pose2,
+    /// With `--source ros1`: the ROS master's URI (default: `ROS_MASTER_URI`, else
+    /// http://localhost:11311).
+    #[arg(long, value_name = "URI")]
+    pub ros_master_uri: Option<String>,
 }
 
 impl Default for RosTopics {
@@ -57,6 +61,7 @@ impl Default for RosTopics {
                 y_m: 0.0,
                 theta_rad: 0.0,
             },
+            ros_master_uri: None,
         }
     }
 }

@@ -145,6 +145,10 @@ async fn open_source(
                 .await?,
             )
         }
+        SourceSpec::Ros1 => Box::new(
+            crate::runtime::ros1_source::Ros1Source::open(&args.ros, &args.robot_id, stop.clone())
+                .await?,
+        ),
         SourceSpec::Images(dir) => Box::new(ImagesSource::open(dir)?),
         SourceSpec::Mcap(file) => Box::new(McapSource::open(file, &args.ros)?),
     })

@@ -1,5 +1,6 @@
 //! Where camera frames come from: an image folder, an MCAP recording, or a running robot's
-//! ROS topics over Zenoh ([`crate::runtime::live_ros`]). Another crate brings its own source
+//! ROS topics from its ROS 1 master ([`crate::runtime::ros1_source`]) or over Zenoh
+//! ([`crate::runtime::live_ros`]). Another crate brings its own source
 //! by implementing [`FrameSource`].
 
 use crate::runtime::frame::StoredFrame;
@@ -26,12 +27,17 @@ pub enum SourceSpec {
     Mcap(PathBuf),
     /// A running robot's ROS topics over Zenoh, in this encoding.
     Zenoh(crate::io::ros_msg::Encoding),
+    /// A running robot's ROS 1 topics from its master.
+    Ros1,
 }
 
 impl std::str::FromStr for SourceSpec {
     type Err = anyhow::Error;
 
     fn from_str(s: &str) -> Result<Self> {
+        if s == "ros1" {
+            return Ok(SourceSpec::Ros1);
+        }
         match s.split_once(':') {
             Some(("images", dir)) if !dir.is_empty() => Ok(SourceSpec::Images(dir.into())),
             Some(("mcap", file)) if !file.is_empty() => Ok(SourceSpec::Mcap(file.into())),
@@ -39,7 +45,7 @@ impl std::str::FromStr for SourceSpec {
                 Ok(SourceSpec::Zenoh(crate::io::ros_msg::Encoding::Cdr))
             }
             Some(("zenoh", "ros1")) => Ok(SourceSpec::Zenoh(crate::io::ros_msg::Encoding::Ros1)),
-            _ => bail!("source {s:?} is not images:DIR, mcap:FILE, zenoh:ros2 or zenoh:ros1"),
+            _ => bail!("source {s:?} is not images:DIR, mcap:FILE, ros1, zenoh:ros2 or zenoh:ros1"),
         }
     }
 }

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# The robot's build on the robot's architecture: a cross-built agent (armv7 or aarch64,
+# run under qemu-user) reads a recorded MiRo's frames, detects, projects and publishes over
+# Zenoh to a native fusion server on loopback, which serves the ball. Also: offline, the
+# cross-built agent finds the same balls in the same frames as the native one.
+#
+#   AGENT=target/cross/armv7-unknown-linux-gnueabihf/robot/robot-agent \
+#   FUSION_SERVER=target/debug/fusion-server SIM_AGENT=target/debug/sim_agent \
+#   NATIVE_AGENT=target/debug/robot-agent tests/miro/smoke.sh
+#
+# Needs qemu-user (robot-agent/deploy/cross-build installs it) and python3.
+set -euo pipefail
+NAME=smoke
+cd "$(dirname "$0")/../.."
+: "${AGENT:?set AGENT to the cross-built robot-agent}"
+: "${FUSION_SERVER:?set FUSION_SERVER to the fusion-server binary}"
+: "${SIM_AGENT:?set SIM_AGENT to the sim_agent binary}"
+: "${NATIVE_AGENT:?set NATIVE_AGENT to a native robot-agent binary}"
+source tests/miro/common.sh
+
+runner_for "$AGENT"
+echo "$NAME: $AGENT under ${RUNNER[*]:-no emulator}"
+
+record_frames "$TMP/frames"
+src="images:$TMP/frames"
+
+# Offline: the same balls as the native build.
+"${RUNNER[@]}" "$AGENT" run --source "$src" --robot-id miro1 --offline > "$TMP/cross-offline.log" 2>&1 \
+  || fail "the cross-built agent failed offline"
+"$NATIVE_AGENT" run --source "$src" --robot-id miro1 --offline > "$TMP/native-offline.log" 2>&1 \
+  || fail "the native agent failed offline"
+cross="$(summary "$TMP/cross-offline.log")"
+native="$(summary "$TMP/native-offline.log")"
+[ -n "$cross" ] || fail "no summary from the cross-built agent"
+[ "$cross" = "$native" ] || fail "frames and observations differ: cross-built $cross, native $native"
+echo "$NAME: offline, frames and observations: cross-built $cross, native $native"
+
+# Live: the frames replayed at their pace, published to a native server.
+start_server
+"${RUNNER[@]}" "$AGENT" run --source "$src" --robot-id miro1 --restamp \
+  --connect "tcp/127.0.0.1:$ZENOH_PORT" > "$TMP/agent.log" 2>&1 &
+PIDS+=($!)
+wait_for_ball miro1 20 90
+grep -q "panicked" "$TMP/agent.log" "$TMP/server.log" && fail "a panic in the logs"
+echo "$NAME: passed"
