@@ -23,7 +23,7 @@ fn bad_sources_and_files_give_clear_errors() {
     };
     assert!(
         run(&["--source", "camera:0"])
-            .contains("is not images:DIR, mcap:FILE, zenoh:ros2 or zenoh:ros1")
+            .contains("is not images:DIR, mcap:FILE, ros1, zenoh:ros2 or zenoh:ros1")
     );
     let missing = format!("images:{}", dir.path().display());
     assert!(run(&["--source", &missing]).contains("frames.jsonl"));
