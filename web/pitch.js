@@ -235,6 +235,29 @@ export class PitchView {
     const s = this.transform.scale;
     const pred = b.prediction || { samples: [], bounces: [], stop: null };
     const path = pred.samples || [];
+    // How sure the path is: each predicted point's 2σ ellipse (and the stop's), filled as
+    // one shape, so the band widens where the server is less sure.
+    const band = [];
+    for (const p of path.concat(pred.stop ? [pred.stop] : [])) {
+      const c = p.covariance_m2;
+      const e = Array.isArray(c) && c.length === 4 ? ellipse2Sigma(c[0], 0.5 * (c[1] + c[2]), c[3]) : null;
+      if (e) band.push({ x: this.X(p.position_m[0]), y: this.Y(p.position_m[1]), e });
+    }
+    if (band.length > 0) {
+      ctx.fillStyle = "rgba(255, 235, 59, 0.16)";
+      ctx.beginPath();
+      for (const { x, y, e } of band) {
+        const a = Math.max(1, e.major_m * s), b2 = Math.max(1, e.minor_m * s);
+        ctx.moveTo(x + a * Math.cos(-e.angle_rad), y + a * Math.sin(-e.angle_rad));
+        ctx.ellipse(x, y, a, b2, -e.angle_rad, 0, 2 * Math.PI);
+      }
+      ctx.fill("nonzero");
+    }
+    const pathBand = {
+      ellipses: band.length,
+      first_m: band.length ? band[0].e.major_m : 0,
+      widest_m: band.reduce((m, { e }) => Math.max(m, e.major_m), 0),
+    };
     if (path.length > 1) {
       ctx.strokeStyle = "#ffeb3b";
       ctx.lineWidth = 2;
@@ -290,7 +313,7 @@ export class PitchView {
     ctx.stroke();
     ctx.restore();
     this.layout.block({ x: px - radius, y: py - radius, w: 2 * radius, h: 2 * radius }, true);
-    out.ball = { x_m: x, y_m: y, px, py, radius_px: radius, status: b.status, ellipse: e, stamp: b.stamp, existence };
+    out.ball = { x_m: x, y_m: y, px, py, radius_px: radius, status: b.status, ellipse: e, stamp: b.stamp, existence, path_band: pathBand };
   }
 
   arrow(x0, y0, x1, y1, colour) {

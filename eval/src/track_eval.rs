@@ -121,6 +121,10 @@ pub struct TrackTick {
     pub bounces: Vec<(f64, WallSide)>,
     /// The core's last bounces and inferred kicks, at track time (fusion methods only).
     pub motion_events: Vec<(f64, MotionEventKind)>,
+    /// The served covariance of each predicted position (row-major 2×2, m²) and of the
+    /// stop, where the method serves one.
+    pub predicted_cov: Vec<Option<[f64; 4]>>,
+    pub stop_cov: Option<[f64; 4]>,
 }
 
 /// The position on a predicted path `t_s` after its stamp, interpolated between samples.
@@ -138,6 +142,40 @@ fn path_at(p: &Prediction, t_s: f64) -> Option<[f64; 2]> {
         a.position_m[0] + f * (b.position_m[0] - a.position_m[0]),
         a.position_m[1] + f * (b.position_m[1] - a.position_m[1]),
     ])
+}
+
+/// The covariance on a predicted path `t_s` after its stamp, interpolated between samples
+/// (a mixture of two covariances is one too).
+fn cov_at(p: &Prediction, t_s: f64) -> Option<[f64; 4]> {
+    let i = p.samples.partition_point(|s| s.t_s <= t_s);
+    if i == 0 || i >= p.samples.len() {
+        let s = if i == 0 {
+            p.samples.first()
+        } else {
+            p.samples.last()
+        };
+        return s.and_then(|s| s.covariance_m2);
+    }
+    let (a, b) = (p.samples[i - 1], p.samples[i]);
+    let (ca, cb) = (a.covariance_m2?, b.covariance_m2?);
+    let f = (t_s - a.t_s) / (b.t_s - a.t_s);
+    Some(std::array::from_fn(|k| ca[k] + f * (cb[k] - ca[k])))
+}
+
+/// The squared Mahalanobis distance of `err` under `cov` (infinite for a covariance that is
+/// not positive definite), and the 2σ radius: twice the square root of the larger
+/// eigenvalue.
+pub fn mahalanobis(err: [f64; 2], cov: [f64; 4]) -> (f64, f64) {
+    let (a, b, d) = (cov[0], 0.5 * (cov[1] + cov[2]), cov[3]);
+    let det = a * d - b * b;
+    let half_trace = 0.5 * (a + d);
+    let lambda_max = half_trace + (half_trace * half_trace - det).max(0.0).sqrt();
+    let radius = 2.0 * lambda_max.max(0.0).sqrt();
+    if a <= 0.0 || det <= 0.0 {
+        return (f64::INFINITY, radius);
+    }
+    let d2 = (d * err[0] * err[0] - 2.0 * b * err[0] * err[1] + a * err[1] * err[1]) / det;
+    (d2, radius)
 }
 
 /// The fused state at `at` as the server would publish it, as a tick record.
@@ -158,6 +196,11 @@ fn fusion_tick(f: &Fusion, at: Stamp, t_s: f64) -> Option<TrackTick> {
         .prediction
         .stop
         .map(|s| (t_s + lead_s + s.t_s, s.position_m));
+    let predicted_cov = HORIZONS_S
+        .iter()
+        .map(|h| cov_at(&state.prediction, h - lead_s))
+        .collect();
+    let stop_cov = state.prediction.stop.and_then(|s| s.covariance_m2);
     Some(TrackTick {
         record: TickRecord {
             t_s,
@@ -179,6 +222,8 @@ fn fusion_tick(f: &Fusion, at: Stamp, t_s: f64) -> Option<TrackTick> {
             .motion_events()
             .map(|(at_e, kind)| (t_s + at_e.secs_since(at), kind))
             .collect(),
+        predicted_cov,
+        stop_cov,
     })
 }
 
@@ -239,6 +284,8 @@ pub fn run_method(
                         model: None,
                         bounces: Vec::new(),
                         motion_events: Vec::new(),
+                        predicted_cov: Vec::new(),
+                        stop_cov: None,
                     })
                 },
             );
@@ -289,6 +336,8 @@ pub fn run_method(
                         model: None,
                         bounces,
                         motion_events: Vec::new(),
+                        predicted_cov: Vec::new(),
+                        stop_cov: None,
                     })
                 },
             );
@@ -353,6 +402,13 @@ pub struct TrackSamples {
     pub stop_not_predicted: usize,
     /// Errors [`PHASE_HORIZON_S`] ahead by phase ([`Phase`]).
     pub phase_err_m: [Vec<f64>; 3],
+    /// Per horizon of [`HORIZONS_S`], where the method serves a covariance: each state's
+    /// (squared Mahalanobis distance of the true position, 2σ radius in metres) ...
+    pub horizon_d2: Vec<Vec<(f64, f64)>>,
+    /// ... the same per phase ([`Phase`]) and horizon ...
+    pub phase_d2: [Vec<Vec<(f64, f64)>>; 3],
+    /// ... and of the true stop, for the states the stop error is scored at.
+    pub stop_d2: Vec<(f64, f64)>,
 }
 
 /// The horizon the phases are scored at.
@@ -388,6 +444,8 @@ impl TrackSamples {
         TrackSamples {
             horizon_err_m: vec![Vec::new(); HORIZONS_S.len()],
             pushed_windows: vec![0; HORIZONS_S.len()],
+            horizon_d2: vec![Vec::new(); HORIZONS_S.len()],
+            phase_d2: std::array::from_fn(|_| vec![Vec::new(); HORIZONS_S.len()]),
             ..TrackSamples::default()
         }
     }
@@ -423,6 +481,13 @@ impl TrackSamples {
         for k in 0..3 {
             self.phase_err_m[k].extend(&o.phase_err_m[k]);
         }
+        for k in 0..HORIZONS_S.len() {
+            self.horizon_d2[k].extend(&o.horizon_d2[k]);
+            for p in 0..3 {
+                self.phase_d2[p][k].extend(&o.phase_d2[p][k]);
+            }
+        }
+        self.stop_d2.extend(&o.stop_d2);
     }
 }
 
@@ -490,19 +555,25 @@ pub fn score_ticks(
             }
             let err = dist(r.predicted[k], future);
             s.horizon_err_m[k].push(err);
+            let after_push = events
+                .pushes
+                .iter()
+                .any(|(a, b)| *a <= r.t_s && r.t_s - b <= AFTER_PUSH_S);
+            let phase = if after_push {
+                Phase::AfterPush
+            } else if events.bounces.iter().any(|b| b.t_s > r.t_s && b.t_s <= t_f) {
+                Phase::AcrossBounce
+            } else {
+                Phase::Free
+            };
             if (h - PHASE_HORIZON_S).abs() < 1e-9 {
-                let after_push = events
-                    .pushes
-                    .iter()
-                    .any(|(a, b)| *a <= r.t_s && r.t_s - b <= AFTER_PUSH_S);
-                let phase = if after_push {
-                    Phase::AfterPush
-                } else if events.bounces.iter().any(|b| b.t_s > r.t_s && b.t_s <= t_f) {
-                    Phase::AcrossBounce
-                } else {
-                    Phase::Free
-                };
                 s.phase_err_m[phase as usize].push(err);
+            }
+            if let Some(Some(cov)) = tick.predicted_cov.get(k) {
+                let e = [future[0] - r.predicted[k][0], future[1] - r.predicted[k][1]];
+                let m = mahalanobis(e, *cov);
+                s.horizon_d2[k].push(m);
+                s.phase_d2[phase as usize][k].push(m);
             }
         }
         if method.predicts_bounces()
@@ -528,6 +599,10 @@ pub fn score_ticks(
                     let err = dist(predicted, p_stop);
                     s.stop_err_m.push(err);
                     s.stop_rel_err.push(err / dist(now, p_stop));
+                    if let Some(cov) = tick.stop_cov {
+                        let e = [p_stop[0] - predicted[0], p_stop[1] - predicted[1]];
+                        s.stop_d2.push(mahalanobis(e, cov));
+                    }
                 }
                 None => s.stop_not_predicted += 1,
             }

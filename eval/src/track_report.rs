@@ -103,6 +103,37 @@ pub struct MethodSummary {
     pub stop_not_predicted: usize,
     /// Errors [`PHASE_HORIZON_S`] ahead by phase, keyed by [`Phase::name`].
     pub phase_error_m: BTreeMap<String, Spread>,
+    /// How the served covariance covers the true position (methods that serve one): per
+    /// horizon ([`horizon_key`]), over all states (`"all"`) and per [`Phase::name`] ...
+    pub coverage_95: BTreeMap<String, BTreeMap<String, Coverage>>,
+    /// ... and the true stop.
+    pub stop_coverage_95: Option<Coverage>,
+}
+
+/// The squared Mahalanobis distance within which a 2-D Gaussian holds 95 % of its mass.
+pub const D2_95: f64 = 5.991;
+
+/// How well served covariances cover the truth.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Coverage {
+    pub n: usize,
+    /// Share of states whose true position lies in the served 95 % region (d² ≤ [`D2_95`]).
+    pub inside_95: Option<f64>,
+    /// Median 2σ radius (twice the square root of the larger eigenvalue), metres.
+    pub median_radius_m: Option<f64>,
+}
+
+impl Coverage {
+    pub fn of(samples: &[(f64, f64)]) -> Self {
+        let n = samples.len();
+        let inside = samples.iter().filter(|(d2, _)| *d2 <= D2_95).count();
+        let radii: Vec<f64> = samples.iter().map(|(_, r)| *r).collect();
+        Coverage {
+            n,
+            inside_95: (n > 0).then(|| inside as f64 / n as f64),
+            median_radius_m: Spread::of(&radii).median,
+        }
+    }
 }
 
 /// The track's clear wall bounces (no push within [`EVENT_MATCH_S`]) as the core took them.
@@ -189,6 +220,21 @@ impl MethodSummary {
                     )
                 })
                 .collect(),
+            coverage_95: (0..HORIZONS_S.len())
+                .filter(|k| !s.horizon_d2[*k].is_empty())
+                .map(|k| {
+                    let mut by = BTreeMap::new();
+                    by.insert("all".to_string(), Coverage::of(&s.horizon_d2[k]));
+                    for p in Phase::ALL {
+                        by.insert(
+                            p.name().to_string(),
+                            Coverage::of(&s.phase_d2[p as usize][k]),
+                        );
+                    }
+                    (horizon_key(HORIZONS_S[k]), by)
+                })
+                .collect(),
+            stop_coverage_95: (!s.stop_d2.is_empty()).then(|| Coverage::of(&s.stop_d2)),
         }
     }
 }
@@ -417,6 +463,52 @@ pub fn markdown(rep: &TracksReport) -> String {
                 opt(m.stop_within_10_percent, |v| format!("{:.0} %", v * 100.0)),
                 m.stop_not_predicted
             ));
+        }
+    }
+    if rep.methods.iter().any(|m| !m.coverage_95.is_empty()) {
+        s.push_str(&format!(
+            "\nHow sure the served path says it is, against where the ball went: the share of \
+             states whose true position lies in the served 95 % region (d² ≤ {D2_95:.2}; \
+             honest is 88–98 %) and the median 2σ radius, by horizon and by what the window \
+             holds; the stop row scores the predicted stop as the stop table does.\n\n\
+             | method | horizon | all | {} | {} | {} |\n|---|---|---|---|---|---|\n",
+            Phase::AfterPush.name(),
+            Phase::AcrossBounce.name(),
+            Phase::Free.name()
+        ));
+        let cell = |c: Option<&Coverage>| match c {
+            Some(Coverage {
+                n,
+                inside_95: Some(i),
+                median_radius_m: Some(r),
+            }) => format!("{:.0} % · {:.0} cm ({n})", i * 100.0, r * 100.0),
+            _ => "–".into(),
+        };
+        for m in &rep.methods {
+            if m.coverage_95.is_empty() {
+                continue;
+            }
+            for h in TABLE_HORIZONS_S {
+                let Some(by) = m.coverage_95.get(&horizon_key(h)) else {
+                    continue;
+                };
+                s.push_str(&format!(
+                    "| {} | {} s | {} | {} | {} | {} |\n",
+                    m.method,
+                    horizon_key(h),
+                    cell(by.get("all")),
+                    cell(by.get(Phase::AfterPush.name())),
+                    cell(by.get(Phase::AcrossBounce.name())),
+                    cell(by.get(Phase::Free.name())),
+                ));
+            }
+            if let Some(c) = &m.stop_coverage_95 {
+                s.push_str(&format!(
+                    "| {} | stop | {} | | | |\n",
+                    m.method,
+                    cell(Some(c))
+                ));
+            }
         }
     }
     let relocated = |m: &MethodSummary| m.relocation_found_s.n + m.relocations_not_found;

@@ -189,6 +189,12 @@ pub struct PathSample {
     pub t_s: f64,
     pub position_m: [f64; 2],
     pub velocity_mps: [f64; 2],
+    /// 2×2 covariance of the predicted position, row-major, m²: the estimate's own
+    /// uncertainty and that of the learned motion parameters flown through the motion
+    /// model (bounces included), plus the process noise of the flight. Absent from
+    /// servers that do not predict it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub covariance_m2: Option<[f64; 4]>,
 }
 
 /// A predicted wall bounce.
@@ -208,6 +214,9 @@ pub struct StopPoint {
     /// Seconds after the prediction's stamp.
     pub t_s: f64,
     pub position_m: [f64; 2],
+    /// 2×2 covariance of the stop point, row-major, m² (as a sample's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub covariance_m2: Option<[f64; 4]>,
 }
 
 /// The ball's predicted path from `stamp` on, through wall bounces, to its stop.

@@ -293,6 +293,9 @@ impl Validate for Prediction {
         for s in &self.samples {
             check_finite("samples", &[s.t_s, s.position_m[0], s.position_m[1]])?;
             check_finite("samples", &s.velocity_mps)?;
+            if let Some(c) = &s.covariance_m2 {
+                check_covariance::<2>("samples.covariance_m2", c)?;
+            }
             ctx.check_position(s.position_m)?;
         }
         for b in &self.bounces {
@@ -301,6 +304,9 @@ impl Validate for Prediction {
         if let Some(stop) = &self.stop {
             check_finite("stop", &[stop.t_s, stop.position_m[0], stop.position_m[1]])?;
             check_range("stop.t_s", stop.t_s, 0.0, 3600.0)?;
+            if let Some(c) = &stop.covariance_m2 {
+                check_covariance::<2>("stop.covariance_m2", c)?;
+            }
         }
         ctx.check_stamp(self.stamp)
     }

@@ -92,6 +92,14 @@ async function liveChecks(browser, recordDir) {
   const pxErr = Math.hypot(snap.ball.px - (w / 2 + snap.ball.x_m * scale),
     snap.ball.py - (snap.canvas.height_px / 2 - snap.ball.y_m * scale));
   check(pxErr < 1, `ball marker at its field position on the canvas (${pxErr.toFixed(2)} px off)`);
+  // The predicted path is drawn as a band that widens with the server's uncertainty.
+  const banded = await until("the path's uncertainty band", async () => {
+    const b = (await tb(page)).ball;
+    return b && b.path_band && b.path_band.ellipses >= 2 && b.path_band.widest_m > b.path_band.first_m && b.path_band;
+  }, 30_000, 100).catch((e) => fail(e.message));
+  if (banded) {
+    check(true, `path band of ${banded.ellipses} ellipses, 2σ from ${(banded.first_m * 100).toFixed(1)} to ${(banded.widest_m * 100).toFixed(1)} cm`);
+  }
   const first = snap.ball;
   const moved = await until("the ball to move", async () => {
     const b = (await tb(page)).ball;

@@ -40,12 +40,16 @@ BALL_STATE = {
         "stamp": 1700000000000000000,
         "horizon_s": 2.0,
         "samples": [
-            {"t_s": 0.0, "position_m": [1.2, 0.4], "velocity_mps": [1.1, 0.3]},
-            {"t_s": 1.0, "position_m": [1.83, 0.64], "velocity_mps": [-0.35, 0.2]},
-            {"t_s": 2.0, "position_m": [1.62, 0.76], "velocity_mps": [-0.08, 0.04]},
+            {"t_s": 0.0, "position_m": [1.2, 0.4], "velocity_mps": [1.1, 0.3],
+             "covariance_m2": [0.0004, 0.0001, 0.0001, 0.0003]},
+            {"t_s": 1.0, "position_m": [1.83, 0.64], "velocity_mps": [-0.35, 0.2],
+             "covariance_m2": [0.004, 0.001, 0.001, 0.002]},
+            {"t_s": 2.0, "position_m": [1.62, 0.76], "velocity_mps": [-0.08, 0.04],
+             "covariance_m2": [0.012, 0.002, 0.002, 0.006]},
         ],
         "bounces": [{"t_s": 0.62, "position_m": [1.91, 0.58], "wall": "x_max"}],
-        "stop": {"t_s": 2.4, "position_m": [1.6, 0.77]},
+        "stop": {"t_s": 2.4, "position_m": [1.6, 0.77],
+                 "covariance_m2": [0.015, 0.002, 0.002, 0.007]},
     },
 }
 

@@ -41,6 +41,12 @@ class ParsesTheProtocolExamples(unittest.TestCase):
         self.assertEqual([x.t_s for x in p.samples], [0.0, 1.0, 2.0])
         self.assertEqual(p.bounces[0].wall, "x_max")
         self.assertEqual(p.stop.position_m, (1.6, 0.77))
+        self.assertEqual(p.samples[1].covariance_m2, (0.004, 0.001, 0.001, 0.002))
+        self.assertEqual(p.stop.covariance_m2, (0.015, 0.002, 0.002, 0.007))
+        mid = p.covariance_at(1.5)
+        self.assertAlmostEqual(mid[0], 0.008)
+        self.assertAlmostEqual(mid[3], 0.004)
+        self.assertEqual(p.covariance_at(3.0), p.stop.covariance_m2)
         self.assertAlmostEqual(s.speed_mps, math.hypot(1.1, 0.3))
         self.assertAlmostEqual(s.position_std_m[0], 0.03)
 
@@ -101,7 +107,6 @@ class RejectsInvalidMessages(unittest.TestCase):
         self.assertEqual(self.reason(b""), "not_json")
 
     def test_missing_unknown_and_mistyped_fields(self):
-        self.assertEqual(self.reason(state(colour="red")), "not_json")
         self.assertEqual(self.reason(state(position_m=DELETE)), "not_json")
         self.assertEqual(self.reason(state(position_m=[1.0])), "not_json")
         self.assertEqual(self.reason(state(position_m=[True, 0.0])), "not_json")
@@ -109,12 +114,29 @@ class RejectsInvalidMessages(unittest.TestCase):
         self.assertEqual(self.reason(state(stamp=-1)), "not_json")
         self.assertEqual(self.reason(state(status="rolling")), "not_json")
         self.assertEqual(self.reason(state(contributors=["miro1", 3])), "not_json")
-        nested = state()
-        nested["prediction"]["samples"][1]["spin"] = 0.0
-        self.assertEqual(self.reason(nested), "not_json")
+        # Fields this client does not know (a newer server's) are ignored.
+        newer = state(spin=[0.0, 1.0])
+        newer["prediction"]["samples"][1]["spin"] = 0.0
+        self.assertEqual(parse_ball_state(dumps(newer)).position_m, (1.2, 0.4))
         wall = state()
         wall["prediction"]["bounces"][0]["wall"] = "goal"
         self.assertEqual(self.reason(wall), "not_json")
+
+    def test_predicted_covariances_are_checked(self):
+        bad = state()
+        bad["prediction"]["samples"][1]["covariance_m2"] = [0.004, 0.001, 0.002, 0.002]
+        self.assertEqual(self.reason(bad), "covariance_asymmetric")
+        bad["prediction"]["samples"][1]["covariance_m2"] = [0.001, 0.002, 0.002, 0.001]
+        self.assertEqual(self.reason(bad), "covariance_not_pd")
+        bad["prediction"]["samples"][1]["covariance_m2"] = [0.001, 0.0]
+        self.assertEqual(self.reason(bad), "not_json")
+        old = state()
+        for smp in old["prediction"]["samples"]:
+            del smp["covariance_m2"]
+        del old["prediction"]["stop"]["covariance_m2"]
+        p = parse_ball_state(dumps(old)).prediction
+        self.assertIsNone(p.samples[0].covariance_m2)
+        self.assertIsNone(p.covariance_at(1.0))
 
     def test_nan_literals_are_not_json(self):
         text = json.dumps(BALL_STATE).replace("0.97", "NaN")

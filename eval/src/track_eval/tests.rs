@@ -40,6 +40,7 @@ fn a_path_is_interpolated_between_its_samples() {
                 t_s: 0.1 * k as f64,
                 position_m: [k as f64, 0.0],
                 velocity_mps: [10.0, 0.0],
+                covariance_m2: None,
             })
             .collect(),
         bounces: Vec::new(),
@@ -118,4 +119,26 @@ fn windows_across_a_kick_are_left_out() {
     );
     // Before the kick the ball rests: the core says stopped, and so it should.
     assert!(fusion.stopped_while_moving * 5 < fusion.moving_states.max(1));
+}
+
+#[test]
+fn mahalanobis_distance_and_radius_of_a_served_covariance() {
+    // σ = 0.1 m along x, 0.05 m along y.
+    let cov = [0.01, 0.0, 0.0, 0.0025];
+    let (d2, r) = mahalanobis([0.2, 0.0], cov);
+    assert!(
+        (d2 - 4.0).abs() < 1e-12 && (r - 0.2).abs() < 1e-12,
+        "{d2} {r}"
+    );
+    let (d2, _) = mahalanobis([0.0, 0.1], cov);
+    assert!((d2 - 4.0).abs() < 1e-12);
+    // Not positive definite: never inside.
+    assert_eq!(
+        mahalanobis([0.0, 0.0], [0.0, 0.0, 0.0, 1.0]).0,
+        f64::INFINITY
+    );
+    let c = crate::track_report::Coverage::of(&[(1.0, 0.1), (7.0, 0.3), (2.0, 0.2)]);
+    assert_eq!(c.n, 3);
+    assert!((c.inside_95.expect("states") - 2.0 / 3.0).abs() < 1e-12);
+    assert_eq!(c.median_radius_m, Some(0.2));
 }

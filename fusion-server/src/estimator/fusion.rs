@@ -10,6 +10,7 @@ use super::filter::{BallFilter, DECEL, RESTITUTION};
 use super::intercept::{InterceptSolution, intercept};
 use super::motion::{Bounds, speed};
 use super::predict;
+use super::spread::spread;
 use super::tracker::{MotionEventKind, NothingSeen, ObsInput, RobotTrust, Tracker, TrackerConfig};
 use super::views::{Footprint, FootprintError, Views};
 use nalgebra::Matrix2;
@@ -537,17 +538,32 @@ impl Fusion {
         })
     }
 
+    /// The predicted path from the filter's state, every point and the stop with its
+    /// covariance ([`spread`]).
     fn prediction_of(&self, f: &BallFilter, horizon_s: f64) -> Prediction {
         let tracker = self.tracker();
-        predict::path(
+        let model = f.model(&tracker.motion());
+        let mut prediction = predict::path(
             f.position(),
             f.velocity(),
-            &f.model(&tracker.motion()),
+            &model,
             tracker.bounds(),
             self.stamp_of(f.time_s()),
             horizon_s,
             self.cfg.sample_dt_s,
-        )
+        );
+        if let Some(track) = tracker.main() {
+            let noise = tracker.prediction_noise_for(track);
+            spread(
+                &mut prediction,
+                f.state(),
+                f.covariance(),
+                &model,
+                tracker.bounds(),
+                &noise,
+            );
+        }
+        prediction
     }
 
     /// The predicted path from `at` over `horizon_s`.

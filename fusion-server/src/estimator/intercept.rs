@@ -47,6 +47,7 @@ pub fn intercept(
     let rest = stop(position, velocity, model, bounds).unwrap_or(proto::StopPoint {
         t_s: MAX_STOP_SEARCH_S,
         position_m: fly(position, velocity, MAX_STOP_SEARCH_S, model, bounds).position,
+        covariance_m2: None,
     });
     let t_stop = rest.t_s.min(MAX_STOP_SEARCH_S);
     let g = |t: f64| margin(position, velocity, model, bounds, robot, speed_mps, t);

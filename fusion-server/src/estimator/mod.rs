@@ -8,13 +8,15 @@
 //! - [`surface`]: the floor's decelerations and the walls' restitution, learned from every
 //!   stretch and bounce the estimate is seen through.
 //! - [`views`]: the robots' camera footprints, and a ball in view that is not seen.
-//! - [`predict`]: path, bounces, stop point; [`intercept`]: where a robot meets the ball.
+//! - [`predict`]: path, bounces, stop point; [`spread`]: how sure each predicted point and
+//!   the stop are; [`intercept`]: where a robot meets the ball.
 
 pub mod filter;
 pub mod fusion;
 pub mod intercept;
 pub mod motion;
 pub mod predict;
+pub mod spread;
 pub mod surface;
 pub mod tracker;
 pub mod views;

@@ -1,4 +1,5 @@
-//! The predicted path in closed form: samples, wall bounces, and where the ball stops.
+//! The predicted path in closed form: samples, wall bounces, and where the ball stops
+//! (their covariances: [`super::spread`]).
 
 use super::motion::{Bounds, MotionModel, fly, speed, stop_point};
 use proto::{BounceEvent, PathSample, Prediction, Stamp, StopPoint};
@@ -41,6 +42,7 @@ pub fn path(
             t_s,
             position_m: p,
             velocity_mps: v,
+            covariance_m2: None,
         });
     }
     let whole = fly(position, velocity, horizon_s, model, bounds);
@@ -73,12 +75,14 @@ pub fn stop(
         return Some(StopPoint {
             t_s: 0.0,
             position_m: position,
+            covariance_m2: None,
         });
     }
     let f = stop_point(position, velocity, model, bounds, MAX_STOP_SEARCH_S);
     f.stopped_at_s.map(|t_s| StopPoint {
         t_s,
         position_m: f.position,
+        covariance_m2: None,
     })
 }
 

@@ -363,6 +363,17 @@ impl Tracker {
         noise
     }
 
+    /// The process noise of a track's predicted path: the flight's own (growing with the
+    /// speed), without what a robot nearby might do to the ball. A kick is not foreseen by
+    /// any path; the path's uncertainty is that of the flight without one.
+    pub fn prediction_noise_for(&self, track: &Track) -> ProcessNoise {
+        let cfg = &self.cfg;
+        let mut noise = cfg.noise;
+        let s = speed(track.filter.velocity());
+        noise.accel_m2ps3 += cfg.accel_speed_gain * s * s;
+        noise
+    }
+
     fn near_robot(&self, p: [f64; 2], t_s: f64) -> bool {
         self.robot_within(p, t_s, self.cfg.near_robot_m)
     }

@@ -25,6 +25,7 @@ const BALL: Color = rgba(1.0, 0.55, 0.0, 1.0);
 /// A ball not seen lately (coasting or lost).
 const BALL_UNSEEN: Color = rgba(1.0, 0.55, 0.0, 0.45);
 const PATH: Color = rgba(1.0, 0.85, 0.1, 1.0);
+const PATH_BAND: Color = rgba(1.0, 0.85, 0.1, 0.45);
 const BOUNCE: Color = rgba(1.0, 0.3, 0.9, 1.0);
 const STOP: Color = rgba(1.0, 1.0, 1.0, 1.0);
 
@@ -307,7 +308,16 @@ fn ball(b: &BallState, radius_m: f64, stamp: Stamp) -> SceneEntity {
     e
 }
 
-/// The predicted path, a marker at each bounce and a cross at the stop point.
+/// The time between a path's samples (0.1 s when it has fewer than two).
+fn sample_step_s(p: &proto::Prediction) -> f64 {
+    match p.samples.as_slice() {
+        [a, b, ..] if b.t_s > a.t_s => b.t_s - a.t_s,
+        _ => 0.1,
+    }
+}
+
+/// The predicted path with its 2σ ellipses, a marker at each bounce and a cross at the stop
+/// point.
 fn prediction(b: &BallState, stamp: Stamp) -> SceneEntity {
     let mut e = entity("prediction", stamp);
     let p = &b.prediction;
@@ -319,6 +329,28 @@ fn prediction(b: &BallState, stamp: Stamp) -> SceneEntity {
     path.retain(|q| q[0].is_finite() && q[1].is_finite());
     if path.len() >= 2 {
         e.lines.push(line(&path, 0.02, false, 0.015, PATH));
+    }
+    // How sure the path is: the 2σ ellipse of every half second's point and of the stop,
+    // widening along the path.
+    let every = ((0.5 / sample_step_s(p)).round() as usize).max(1);
+    let mut widest_m: f64 = 0.0;
+    let bands = p
+        .samples
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % every == 0)
+        .map(|(_, s)| (s.position_m, s.covariance_m2))
+        .chain(p.stop.iter().map(|s| (s.position_m, s.covariance_m2)));
+    for (at, cov) in bands {
+        let Some(cov) = cov else { continue };
+        if let Some(points) = ellipse(at, cov, K_SIGMA) {
+            let major = points
+                .iter()
+                .map(|q| (q[0] - at[0]).hypot(q[1] - at[1]))
+                .fold(0.0, f64::max);
+            widest_m = widest_m.max(major);
+            e.lines.push(line(&points, 0.015, true, 0.006, PATH_BAND));
+        }
     }
     for bounce in &p.bounces {
         e.spheres
@@ -348,6 +380,7 @@ fn prediction(b: &BallState, stamp: Stamp) -> SceneEntity {
         ("horizon_s", format!("{:.2}", p.horizon_s)),
         ("samples", p.samples.len().to_string()),
         ("bounces", p.bounces.len().to_string()),
+        ("widest_2sigma_radius_m", format!("{widest_m:.3}")),
         (
             "stop_s",
             p.stop

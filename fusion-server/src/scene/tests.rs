@@ -108,7 +108,18 @@ fn the_scene_holds_the_pitch_the_robots_the_sightings_and_the_ball_where_they_ar
     assert!((drawn[0] - 0.58).abs() < 0.1, "{drawn:?}");
     assert_eq!(b.lines.len(), 1, "the 2σ ellipse");
     assert_eq!(b.arrows.len(), 1, "the velocity");
-    assert!(find(&scene, "prediction").lines[0].points.len() >= 2);
+    let pred = find(&scene, "prediction");
+    assert!(pred.lines[0].points.len() >= 2);
+    // The fused ball's path carries covariances: its 2σ ellipses are drawn, closed.
+    let bands = pred.lines.iter().filter(|l| l.r#type == 1).count();
+    assert!(bands >= 2, "{bands} ellipses along the path");
+    let widest = pred
+        .metadata
+        .iter()
+        .find(|kv| kv.key == "widest_2sigma_radius_m")
+        .and_then(|kv| kv.value.parse::<f64>().ok())
+        .expect("the widest ellipse in the metadata");
+    assert!(widest > 0.0);
 
     let accepted = find(&scene, "sightings/accepted");
     let refused = find(&scene, "sightings/refused");

@@ -152,16 +152,19 @@ pub fn prediction() -> Prediction {
                 t_s: 0.0,
                 position_m: [1.2, 0.4],
                 velocity_mps: [1.1, 0.3],
+                covariance_m2: Some([0.0004, 0.0001, 0.0001, 0.0003]),
             },
             PathSample {
                 t_s: 1.0,
                 position_m: [1.83, 0.64],
                 velocity_mps: [-0.35, 0.2],
+                covariance_m2: Some([0.004, 0.001, 0.001, 0.002]),
             },
             PathSample {
                 t_s: 2.0,
                 position_m: [1.62, 0.76],
                 velocity_mps: [-0.08, 0.04],
+                covariance_m2: Some([0.012, 0.002, 0.002, 0.006]),
             },
         ],
         bounces: vec![BounceEvent {
@@ -172,6 +175,7 @@ pub fn prediction() -> Prediction {
         stop: Some(StopPoint {
             t_s: 2.4,
             position_m: [1.6, 0.77],
+            covariance_m2: Some([0.015, 0.002, 0.002, 0.007]),
         }),
     }
 }

@@ -126,10 +126,18 @@ prop_compose! {
     }
 }
 
+pub fn covariance_2() -> impl Strategy<Value = Option<[f64; 4]>> {
+    proptest::option::of([finite(), finite(), finite(), finite()])
+}
+
 prop_compose! {
-    pub fn path_sample()(t_s in finite(), position_m in pair(), velocity_mps in pair())
-        -> PathSample {
-        PathSample { t_s, position_m, velocity_mps }
+    pub fn path_sample()(
+        t_s in finite(),
+        position_m in pair(),
+        velocity_mps in pair(),
+        covariance_m2 in covariance_2(),
+    ) -> PathSample {
+        PathSample { t_s, position_m, velocity_mps, covariance_m2 }
     }
 }
 
@@ -141,8 +149,9 @@ prop_compose! {
 }
 
 prop_compose! {
-    pub fn stop_point()(t_s in finite(), position_m in pair()) -> StopPoint {
-        StopPoint { t_s, position_m }
+    pub fn stop_point()(t_s in finite(), position_m in pair(), covariance_m2 in covariance_2())
+        -> StopPoint {
+        StopPoint { t_s, position_m, covariance_m2 }
     }
 }
 

@@ -13,13 +13,15 @@ message (``t_s``) are seconds after that message's stamp.
 
 Checks (each failure raises :class:`~miro_ball.errors.MessageError` with a reason label):
 
-- ``not_json``: not UTF-8 JSON, not an object, a missing or unknown field, a value of the
-  wrong type, an unknown status or wall name, NaN/Infinity literals;
+- ``not_json``: not UTF-8 JSON, not an object, a missing field, a value of the wrong type,
+  an unknown status or wall name, NaN/Infinity literals. Fields this client does not know
+  are ignored, so that a newer server's optional fields do not break it (the version
+  still decides: a message of another version is refused);
 - ``no_version`` / ``version``: ``version`` missing or not an integer / not 1 (read first);
 - ``non_finite``: a number overflows to infinity;
 - ``robot_id``: an id that is not 1-64 characters of ``A-Z a-z 0-9 _ -``;
-- ``covariance_asymmetric`` / ``covariance_not_pd``: the state's 4x4 covariance is not
-  symmetric / not positive definite;
+- ``covariance_asymmetric`` / ``covariance_not_pd``: the state's 4x4 covariance, or a
+  predicted point's or the stop's 2x2 one, is not symmetric / not positive definite;
 - ``outside_pitch``: a position more than ``max_outside_m`` (1 m) outside the pitch;
 - ``stamp``: a stamp further than ``max_clock_skew_s`` from this machine's clock (only when
   a skew is given: off by default, since a replayed match carries its recorded times);
@@ -112,6 +114,8 @@ class PathSample:
     t_s: float  #: seconds after the prediction's stamp
     position_m: Vec2
     velocity_mps: Vec2
+    #: 2x2 covariance of the position, row-major, m² (``None`` from a server that sends none)
+    covariance_m2: Optional[Tuple[float, float, float, float]] = None
 
 
 @dataclass(frozen=True)
@@ -129,6 +133,8 @@ class StopPoint:
 
     t_s: float  #: seconds after the prediction's stamp (0 when at rest)
     position_m: Vec2
+    #: 2x2 covariance of the stop point, row-major, m² (``None`` when not sent)
+    covariance_m2: Optional[Tuple[float, float, float, float]] = None
 
 
 @dataclass(frozen=True)
@@ -188,6 +194,26 @@ class Prediction:
             return p1
         a = (t_s - t0) / (t1 - t0)
         return (p0[0] + a * (p1[0] - p0[0]), p0[1] + a * (p1[1] - p0[1]))
+
+    def covariance_at(self, t_s: float) -> Optional[Tuple[float, float, float, float]]:
+        """The 2x2 covariance (row-major, m²) of the predicted position ``t_s`` seconds after
+        ``stamp``: linear between samples (a blend of two covariances is one too), the
+        stop's from the stop time on; ``None`` from a server that sends no covariances."""
+        if not math.isfinite(t_s):
+            raise ValueError(f"t_s must be a finite number of seconds, not {t_s!r}")
+        if self.stop is not None and t_s >= self.stop.t_s and self.stop.covariance_m2 is not None:
+            return self.stop.covariance_m2
+        times = [s.t_s for s in self.samples]
+        if t_s <= times[0]:
+            return self.samples[0].covariance_m2
+        if t_s >= times[-1]:
+            return self.samples[-1].covariance_m2
+        i = bisect.bisect_right(times, t_s)
+        s0, s1 = self.samples[i - 1], self.samples[i]
+        if s0.covariance_m2 is None or s1.covariance_m2 is None:
+            return None
+        a = 0.0 if s1.t_s <= s0.t_s else (t_s - s0.t_s) / (s1.t_s - s0.t_s)
+        return tuple(c0 + a * (c1 - c0) for c0, c1 in zip(s0.covariance_m2, s1.covariance_m2))  # type: ignore[return-value]
 
     def velocity_at(self, t_s: float) -> Vec2:
         """The predicted ball velocity ``t_s`` seconds after ``stamp``: linear between
@@ -392,15 +418,12 @@ def _is_num(v: Any) -> bool:
 
 
 class _Reader:
-    """Reads one JSON object's fields, rejecting missing and unknown ones."""
+    """Reads one JSON object's fields, rejecting missing ones and ignoring unknown ones."""
 
     def __init__(self, obj: Any, where: str, required: Iterable[str], optional: Iterable[str] = ()):
         if not isinstance(obj, dict):
             raise MessageError("not_json", f"{where} is not an object")
-        req, opt = tuple(required), tuple(optional)
-        unknown = sorted(set(obj) - set(req) - set(opt))
-        if unknown:
-            raise MessageError("not_json", f"{where} has unknown field(s) {', '.join(unknown)}")
+        req = tuple(required)
         missing = [k for k in req if k not in obj]
         if missing:
             raise MessageError("not_json", f"{where} lacks field(s) {', '.join(missing)}")
@@ -442,6 +465,20 @@ class _Reader:
         return v
 
 
+def _cov2(r: "_Reader", where: str) -> Optional[Tuple[float, float, float, float]]:
+    """An optional 2x2 covariance field, checked symmetric and positive definite."""
+    if not r.has("covariance_m2"):
+        return None
+    v = r.obj["covariance_m2"]
+    if not isinstance(v, list) or len(v) != 4 or not all(_is_num(x) for x in v):
+        raise MessageError("not_json", f"{where} is not a list of 4 numbers")
+    c = tuple(float(x) for x in v)
+    if not all(math.isfinite(x) for x in c):
+        raise MessageError("non_finite", f"{where} has a non-finite number")
+    _check_covariance(c, 2, where)
+    return c  # type: ignore[return-value]
+
+
 def _decode_prediction(obj: Any, where: str) -> Prediction:
     if isinstance(obj, dict):
         _check_version(obj, where)
@@ -449,7 +486,14 @@ def _decode_prediction(obj: Any, where: str) -> Prediction:
     samples = []
     for i, s in enumerate(r.list_("samples")):
         sr = _Reader(s, f"{where}.samples[{i}]", ("t_s", "position_m", "velocity_mps"))
-        samples.append(PathSample(sr.num("t_s"), sr.vec("position_m"), sr.vec("velocity_mps")))
+        samples.append(
+            PathSample(
+                sr.num("t_s"),
+                sr.vec("position_m"),
+                sr.vec("velocity_mps"),
+                _cov2(sr, f"{where}.samples[{i}].covariance_m2"),
+            )
+        )
     bounces = []
     for i, b in enumerate(r.list_("bounces")):
         br = _Reader(b, f"{where}.bounces[{i}]", ("t_s", "position_m", "wall"))
@@ -457,7 +501,7 @@ def _decode_prediction(obj: Any, where: str) -> Prediction:
     stop = None
     if r.has("stop"):
         st = _Reader(r.obj["stop"], f"{where}.stop", ("t_s", "position_m"))
-        stop = StopPoint(st.num("t_s"), st.vec("position_m"))
+        stop = StopPoint(st.num("t_s"), st.vec("position_m"), _cov2(st, f"{where}.stop.covariance_m2"))
     return Prediction(
         version=r.obj["version"],
         stamp=r.int_("stamp"),

@@ -150,6 +150,7 @@ mod tests {
                 stop: Some(StopPoint {
                     t_s: 2.0,
                     position_m: [1.1, -0.25],
+                    covariance_m2: None,
                 }),
             },
         }
