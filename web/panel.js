@@ -156,7 +156,8 @@ export function showIntercept(sel) {
   } else if (sel.reply) {
     const i = sel.reply;
     p.textContent = `${i.robot_id} meets the ball in ${i.t_s.toFixed(1)} s at (${i.point_m[0].toFixed(2)}, ${i.point_m[1].toFixed(2)}) m` +
-      (i.reachable_in_motion ? "" : " (after it stops)");
+      (i.reachable_in_motion ? "" : " (after it stops)") +
+      (typeof i.probability === "number" ? `, ${Math.round(100 * i.probability)} % likely within its reach` : "");
   } else {
     p.textContent = `${sel.robot_id}: asking…`;
   }

@@ -355,8 +355,9 @@ export class PitchView {
     ctx.moveTo(px, py - 8); ctx.lineTo(px, py + 8);
     ctx.stroke();
     this.layout.block({ x: px - 9, y: py - 9, w: 18, h: 18 });
-    this.queued.push({ kind: "intercept", text: `${i.robot_id} ${i.t_s.toFixed(1)} s`, x: px, y: py, colour: "#e1f5fe" });
-    out.intercept = { robot_id: i.robot_id, point_m: i.point_m, t_s: i.t_s, px, py };
+    const chance = typeof i.probability === "number" ? ` · ${Math.round(100 * i.probability)} %` : "";
+    this.queued.push({ kind: "intercept", text: `${i.robot_id} ${i.t_s.toFixed(1)} s${chance}`, x: px, y: py, colour: "#e1f5fe" });
+    out.intercept = { robot_id: i.robot_id, point_m: i.point_m, t_s: i.t_s, probability: i.probability ?? null, px, py };
   }
 
   /// The labels queued while drawing, each where it covers nothing drawn or placed before it.

@@ -828,6 +828,7 @@ impl Engine {
                     reachable_in_motion: s.reachable_in_motion,
                     t_s: s.t_s,
                     point_m: s.point_m,
+                    probability: s.probability,
                 }))
             }
         }

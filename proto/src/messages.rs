@@ -273,6 +273,10 @@ pub struct Intercept {
     /// Seconds after `stamp`.
     pub t_s: f64,
     pub point_m: [f64; 2],
+    /// How likely, 0 to 1, the ball is within the robot's reach at `point_m` and `t_s`, given
+    /// how sure the predicted path is there. Absent from servers that do not say.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probability: Option<f64>,
 }
 
 #[cfg(test)]

@@ -190,6 +190,8 @@ async function liveChecks(browser, recordDir) {
     }, 3000).catch(async () => page.textContent("#intercept"));
     check(text.includes(pick[0]) && text.includes("meets the ball"),
       `click on ${pick[0]}: intercept in ${icpt.t_s.toFixed(2)} s at (${icpt.point_m.map((v) => v.toFixed(2)).join(", ")}) m, "${text}"`);
+    check(typeof icpt.probability === "number" && icpt.probability >= 0 && icpt.probability <= 1 && text.includes("% likely"),
+      `the intercept says how likely the ball is within reach (${icpt.probability})`);
   }
   await labelChecks(page);
 

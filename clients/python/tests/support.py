@@ -62,6 +62,7 @@ INTERCEPT = {
     "reachable_in_motion": True,
     "t_s": 1.35,
     "point_m": [1.78, 0.69],
+    "probability": 0.82,
 }
 
 

@@ -59,6 +59,8 @@ class ParsesTheProtocolExamples(unittest.TestCase):
         i = parse_intercept(dumps(INTERCEPT))
         self.assertEqual(i.robot_id, "miro2")
         self.assertTrue(i.reachable_in_motion)
+        self.assertAlmostEqual(i.probability, 0.82)
+        self.assertIsNone(parse_intercept(dumps(dict(INTERCEPT, probability=None))).probability)
         self.assertAlmostEqual(i.meet_time_s, 1700000000.0 + 1.35)
         self.assertAlmostEqual(i.time_to_meet_s(now_s=1700000000.0), 1.35, places=5)
 
@@ -204,6 +206,9 @@ class RejectsInvalidMessages(unittest.TestCase):
         s["prediction"]["horizon_s"] = 4000.0
         self.assertEqual(self.reason(s), "out_of_range")
         self.assertEqual(self.reason(dict(INTERCEPT, t_s=-1.0), parse=lambda p, c: parse_intercept(p)), "out_of_range")
+        self.assertEqual(
+            self.reason(dict(INTERCEPT, probability=1.5), parse=lambda p, c: parse_intercept(p)), "out_of_range"
+        )
 
     def test_path_order(self):
         s = state()

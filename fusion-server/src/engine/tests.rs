@@ -142,6 +142,16 @@ fn queries_answer_predictions_and_intercepts() {
         Ok(QueryReply::Intercept(i)) => {
             assert_eq!(i.robot_id, "miro1");
             assert!(i.t_s > 0.0 && i.t_s.is_finite());
+            let p = i.probability.expect("the intercept says how likely");
+            assert!((0.0..=1.0).contains(&p), "{p}");
+            // The same robot, far slower, meets the ball no earlier.
+            let slow = BallQuery::Intercept {
+                robot_id: "miro1".into(),
+                speed_mps: Some(0.01),
+            };
+            if let Ok(QueryReply::Intercept(j)) = e.query(&slow, at(2.0)) {
+                assert!(j.t_s >= i.t_s, "{j:?} {i:?}");
+            }
         }
         other => panic!("{other:?}"),
     }

@@ -10,7 +10,7 @@ use super::filter::{BallFilter, DECEL, RESTITUTION};
 use super::intercept::{InterceptSolution, intercept};
 use super::motion::{Bounds, speed};
 use super::predict;
-use super::spread::spread;
+use super::spread::{covariance_at, spread, within_reach};
 use super::tracker::{MotionEventKind, NothingSeen, ObsInput, RobotTrust, Tracker, TrackerConfig};
 use super::views::{Footprint, FootprintError, Views};
 use nalgebra::Matrix2;
@@ -20,6 +20,9 @@ use proto::{
 };
 use std::collections::VecDeque;
 use std::sync::Arc;
+
+/// How far from its centre a robot touches the ball: about half a MiRo's body, metres.
+pub const ROBOT_REACH_M: f64 = 0.1;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct FusionConfig {
@@ -572,7 +575,10 @@ impl Fusion {
         Some(self.prediction_of(&f, horizon_s))
     }
 
-    /// Where a robot at `robot_m` with top speed `speed_mps` can first meet the ball.
+    /// Where a robot at `robot_m` with top speed `speed_mps` can first meet the ball, and how
+    /// likely the ball is within its reach there (the ball's position covariance at that time,
+    /// the robot's reach: [`ROBOT_REACH_M`] and the ball's radius, plus the ground it can cover
+    /// in the time it has to spare).
     pub fn intercept(
         &self,
         at: Stamp,
@@ -581,14 +587,35 @@ impl Fusion {
     ) -> Option<InterceptSolution> {
         let f = self.filter_at(at)?;
         let tracker = self.tracker();
-        intercept(
+        let model = f.model(&tracker.motion());
+        let mut s = intercept(
             f.position(),
             f.velocity(),
-            &f.model(&tracker.motion()),
+            &model,
             tracker.bounds(),
             robot_m,
             speed_mps,
-        )
+        )?;
+        if let Some(track) = tracker.main() {
+            let noise = tracker.prediction_noise_for(track);
+            let cov = covariance_at(
+                f.state(),
+                f.covariance(),
+                &model,
+                tracker.bounds(),
+                &noise,
+                s.t_s,
+                s.point_m,
+            );
+            // The robot reaches the ball when it touches it, and what time it has to spare
+            // it can spend going further.
+            let spare_s = (s.t_s
+                - (s.point_m[0] - robot_m[0]).hypot(s.point_m[1] - robot_m[1]) / speed_mps)
+                .max(0.0);
+            let reach_m = self.cfg.pitch.ball_radius_m + ROBOT_REACH_M + speed_mps * spare_s;
+            s.probability = Some(within_reach(cov, reach_m));
+        }
+        Some(s)
     }
 
     /// What the core has learned about each robot.

@@ -11,6 +11,9 @@ pub struct InterceptSolution {
     /// Seconds from now.
     pub t_s: f64,
     pub point_m: [f64; 2],
+    /// How likely the ball is within the robot's reach there and then, given how sure the
+    /// path is (set by the caller that knows the covariance: [`super::spread`]).
+    pub probability: Option<f64>,
 }
 
 const SCAN_DT_S: f64 = 0.01;
@@ -57,6 +60,7 @@ pub fn intercept(
             reachable_in_motion: true,
             t_s: 0.0,
             point_m: p0,
+            probability: None,
         });
     }
     let mut lo = 0.0;
@@ -77,6 +81,7 @@ pub fn intercept(
                 reachable_in_motion: true,
                 t_s: hi,
                 point_m: g(hi).1,
+                probability: None,
             });
         }
         lo = t;
@@ -87,6 +92,7 @@ pub fn intercept(
         reachable_in_motion: false,
         t_s: (d / speed_mps).max(t_stop),
         point_m: rest.position_m,
+        probability: None,
     })
 }
 

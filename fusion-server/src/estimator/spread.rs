@@ -68,6 +68,38 @@ pub fn spread(
     }
 }
 
+/// The covariance of the ball's position `t_s` after the filter's time, about `around`
+/// (the served point there), as [`spread`] gives it for a predicted point.
+pub fn covariance_at(
+    x: &State,
+    p: &Cov,
+    model: &MotionModel,
+    bounds: &Bounds,
+    noise: &ProcessNoise,
+    t_s: f64,
+    around: [f64; 2],
+) -> [f64; 4] {
+    let sigmas = sigma_points(x, p);
+    let weight = 1.0 / sigmas.len() as f64;
+    let points = sigmas
+        .iter()
+        .map(|s| fly_samples(s, model, bounds, &[t_s])[0]);
+    let c = scatter(points, around, weight);
+    finish(c, process_noise(x, model, bounds, noise, &[t_s])[0])
+}
+
+/// The probability that a ball whose position is N(`point`, `cov`) lies within `reach_m` of
+/// `point`: exact for a round covariance, and for an elongated one the round covariance of
+/// the same area's (the mass within a circle of a Gaussian with standard deviations σ₁,
+/// σ₂ is close to 1 − exp(−r² / 2σ₁σ₂) unless they differ greatly).
+pub fn within_reach(cov: [f64; 4], reach_m: f64) -> f64 {
+    let det = cov[0] * cov[3] - 0.25 * (cov[1] + cov[2]).powi(2);
+    if det.is_nan() || reach_m.is_nan() || det <= 0.0 || reach_m <= 0.0 {
+        return 0.0;
+    }
+    (1.0 - (-reach_m * reach_m / (2.0 * det.sqrt())).exp()).clamp(0.0, 1.0)
+}
+
 /// The twelve symmetric sigma points x ± √6 · (the covariance's square-root columns), with
 /// the model parameters kept inside the filter's bounds.
 fn sigma_points(x: &State, p: &Cov) -> Vec<State> {
@@ -230,6 +262,27 @@ mod tests {
         let ctx = proto::ValidationContext::new(proto::Pitch::default(), Stamp(0));
         proto::Validate::validate(&pred, &ctx).expect("served covariances are valid");
         assert!(c.iter().all(|c| det(*c) > 0.0));
+    }
+
+    #[test]
+    fn reach_probability_grows_with_reach_and_falls_with_spread() {
+        let tight = [0.0025, 0.0, 0.0, 0.0025];
+        // σ = 5 cm round: within one σ 39 %, within two 86 %.
+        assert!((within_reach(tight, 0.05) - 0.3935).abs() < 1e-3);
+        assert!((within_reach(tight, 0.10) - 0.8647).abs() < 1e-3);
+        assert!(within_reach([0.04, 0.0, 0.0, 0.04], 0.10) < within_reach(tight, 0.10));
+        assert_eq!(within_reach([0.0, 0.0, 0.0, 0.0], 0.1), 0.0);
+        let x = state([0.0, 0.0], [0.6, 0.0]);
+        let p = cov(1e-4, 4e-3, 1e-3, 1e-3);
+        let m = MotionModel::default();
+        let b = Bounds::from_pitch(&proto::Pitch::default());
+        let pred = predicted(&x, &p);
+        let at = pred.samples[10];
+        let c = covariance_at(&x, &p, &m, &b, &noise(), at.t_s, at.position_m);
+        let served = at.covariance_m2.unwrap();
+        for k in 0..4 {
+            assert!((c[k] - served[k]).abs() < 1e-9, "{c:?} {served:?}");
+        }
     }
 
     #[test]

@@ -218,6 +218,7 @@ pub fn intercept() -> Intercept {
         reachable_in_motion: true,
         t_s: 1.35,
         point_m: [1.78, 0.69],
+        probability: Some(0.82),
     }
 }
 

@@ -223,7 +223,7 @@ prop_compose! {
         t_s in finite(),
         point_m in pair(),
     ) -> Intercept {
-        Intercept { version: VERSION, robot_id, stamp, reachable_in_motion, t_s, point_m }
+        Intercept { version: VERSION, robot_id, stamp, reachable_in_motion, t_s, point_m, probability: None }
     }
 }
 

@@ -25,7 +25,7 @@ Checks (each failure raises :class:`~miro_ball.errors.MessageError` with a reaso
 - ``outside_pitch``: a position more than ``max_outside_m`` (1 m) outside the pitch;
 - ``stamp``: a stamp further than ``max_clock_skew_s`` from this machine's clock (only when
   a skew is given: off by default, since a replayed match carries its recorded times);
-- ``out_of_range``: ``existence`` or ``wall_restitution`` outside 0..1, a deceleration
+- ``out_of_range``: ``existence``, ``wall_restitution`` or an intercept's ``probability`` outside 0..1, a deceleration
   outside 0..100 m/s², a horizon or stop time outside 0..3600 s, a negative time;
 - ``bad_path``: a prediction without samples, or whose samples or bounces are not in time
   order (the client's own check: interpolation needs it).
@@ -337,6 +337,9 @@ class Intercept:
     reachable_in_motion: bool  #: False: the robot only meets the ball once it has stopped
     t_s: float  #: seconds after ``stamp`` when robot and ball meet
     point_m: Vec2  #: where they meet
+    #: how likely (0..1) the ball is within the robot's reach there, given how sure the path
+    #: is (``None`` from a server that does not say)
+    probability: Optional[float] = None
 
     @property
     def stamp_s(self) -> float:
@@ -566,6 +569,7 @@ def _decode_intercept(obj: Dict[str, Any]) -> Intercept:
         reachable_in_motion=reach,
         t_s=r.num("t_s"),
         point_m=r.vec("point_m"),
+        probability=r.num("probability") if r.has("probability") else None,
     )
 
 
@@ -694,6 +698,9 @@ def _validate_intercept(i: Intercept) -> None:
     if not is_valid_id(i.robot_id):
         raise MessageError("robot_id", f"Intercept.robot_id {i.robot_id!r} is not a valid robot id")
     _check_range("Intercept.t_s", i.t_s, 0.0, 3600.0)
+    if i.probability is not None:
+        _finite("Intercept.probability", i.probability)
+        _check_range("Intercept.probability", i.probability, 0.0, 1.0)
 
 
 # --------------------------------------------------------------------------- public parsers
