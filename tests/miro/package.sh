@@ -39,7 +39,8 @@ for f in ./usr/bin/robot-agent ./lib/systemd/system/robot-agent.service ./etc/ro
   grep -q " $f\$" "$TMP/contents.log" || fail "$f is not in the package"
 done
 grep -q "rwxr-xr-x root/root .* ./usr/bin/robot-agent$" "$TMP/contents.log" || fail "the binary's mode or owner"
-dpkg-deb --ctrl-tarfile "$deb" | tar -t | grep -qx "./conffiles" || fail "no conffiles"
+dpkg-deb --ctrl-tarfile "$deb" | tar -t > "$TMP/control.log"
+grep -x "./conffiles" "$TMP/control.log" >/dev/null || fail "no conffiles"
 [ "$(dpkg-deb --ctrl-tarfile "$deb" | tar -xO ./conffiles)" = /etc/robot-agent/agent.toml ] \
   || fail "the settings are not a conffile"
 
