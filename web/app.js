@@ -113,6 +113,7 @@ function onFrame(view) {
   while (model.trail.length && t_s - model.trail[0].t_s > TRAIL_S) model.trail.shift();
   while (model.history.length && t_s - model.history[0].t_s > HISTORY_S) model.history.shift();
   replayBar.show(view.replay || null);
+  replayBar.streamed();
 }
 
 /// The ball's last half minute from the server, so that a page that has just opened (or
@@ -169,8 +170,10 @@ function connect() {
 async function askIntercept() {
   const id = model.selected;
   const v = model.view;
-  // Only when there is something to answer: no 404s for a ball not seen or a robot gone.
+  // Only when there is something to answer: no 404s for a ball not seen or a robot gone,
+  // nor while a replay's seek may have left the robot behind.
   if (!id || !v || !v.ball || !v.robots.some((r) => r.robot_id === id && r.pose)) return;
+  if (replayBar.settling()) return;
   try {
     const r = await fetch(`/api/intercept?robot=${encodeURIComponent(id)}`);
     const body = await r.json();

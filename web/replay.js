@@ -34,6 +34,17 @@ export class ReplayBar {
     });
   }
 
+  /// Whether a seek is under way or answered with no state from the stream since: the
+  /// page's state may still be from before it (a robot in it may not exist at the new time).
+  settling() {
+    return this.pending > 0 || Boolean(this.afterSeek);
+  }
+
+  /// A state came from the stream: whatever was sought is in it.
+  streamed() {
+    this.afterSeek = false;
+  }
+
   /// The latest status from the stream (`null`: not a replay).
   show(status) {
     this.status = status;
@@ -77,6 +88,8 @@ export class ReplayBar {
     }
     if (r.ok) {
       el("replay-msg").textContent = "";
+      // Until the stream's next state, the page's state is from before the seek.
+      if (action === "seek") this.afterSeek = true;
       this.show(answer);
     } else {
       if (r.status === 401) el("replay-token-box").hidden = false;
