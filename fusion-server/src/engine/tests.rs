@@ -149,8 +149,9 @@ fn queries_answer_predictions_and_intercepts() {
                 robot_id: "miro1".into(),
                 speed_mps: Some(0.01),
             };
-            if let Ok(QueryReply::Intercept(j)) = e.query(&slow, at(2.0)) {
-                assert!(j.t_s >= i.t_s, "{j:?} {i:?}");
+            match e.query(&slow, at(2.0)) {
+                Ok(QueryReply::Intercept(j)) => assert!(j.t_s >= i.t_s, "{j:?} {i:?}"),
+                other => panic!("{other:?}"),
             }
         }
         other => panic!("{other:?}"),

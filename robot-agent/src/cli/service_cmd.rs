@@ -82,6 +82,17 @@ impl Settings {
         Ok(settings)
     }
 
+    /// The keys that name files or folders, with their values.
+    fn files(&self) -> [(&'static str, &Option<PathBuf>); 5] {
+        [
+            ("tls", &self.tls),
+            ("calibration", &self.calibration),
+            ("calibration_right", &self.calibration_right),
+            ("config", &self.config),
+            ("model", &self.model),
+        ]
+    }
+
     /// What a file can say that `run` would take but the robot cannot work with.
     fn check(&self) -> Result<(), String> {
         if self.robot_id.trim().is_empty() {
@@ -93,14 +104,7 @@ impl Settings {
                     .into(),
             );
         }
-        let files = [
-            ("tls", &self.tls),
-            ("calibration", &self.calibration),
-            ("calibration_right", &self.calibration_right),
-            ("config", &self.config),
-            ("model", &self.model),
-        ];
-        for (key, path) in files {
+        for (key, path) in self.files() {
             if let Some(path) = path
                 && !path.exists()
             {
@@ -151,16 +155,9 @@ impl Settings {
                 flag(name, v.into());
             }
         }
-        let paths = [
-            ("tls", &self.tls),
-            ("calibration", &self.calibration),
-            ("calibration-right", &self.calibration_right),
-            ("config", &self.config),
-            ("model", &self.model),
-        ];
-        for (name, value) in paths {
+        for (key, value) in self.files() {
             if let Some(v) = value {
-                flag(name, v.into());
+                flag(&key.replace('_', "-"), v.into());
             }
         }
         if let Some(topics) = &self.pose_topic {
