@@ -400,8 +400,8 @@ pub struct TrackSamples {
     pub stop_rel_err: Vec<f64>,
     /// ... and those states that predicted no stop.
     pub stop_not_predicted: usize,
-    /// Errors [`PHASE_HORIZON_S`] ahead by phase ([`Phase`]).
-    pub phase_err_m: [Vec<f64>; 3],
+    /// Errors per phase ([`Phase`]) and horizon of [`HORIZONS_S`].
+    pub phase_err_m: [Vec<Vec<f64>>; 3],
     /// Per horizon of [`HORIZONS_S`], where the method serves a covariance: each state's
     /// (squared Mahalanobis distance of the true position, 2σ radius in metres) ...
     pub horizon_d2: Vec<Vec<(f64, f64)>>,
@@ -445,6 +445,7 @@ impl TrackSamples {
             horizon_err_m: vec![Vec::new(); HORIZONS_S.len()],
             pushed_windows: vec![0; HORIZONS_S.len()],
             horizon_d2: vec![Vec::new(); HORIZONS_S.len()],
+            phase_err_m: std::array::from_fn(|_| vec![Vec::new(); HORIZONS_S.len()]),
             phase_d2: std::array::from_fn(|_| vec![Vec::new(); HORIZONS_S.len()]),
             ..TrackSamples::default()
         }
@@ -478,12 +479,10 @@ impl TrackSamples {
         self.stop_err_m.extend(&o.stop_err_m);
         self.stop_rel_err.extend(&o.stop_rel_err);
         self.stop_not_predicted += o.stop_not_predicted;
-        for k in 0..3 {
-            self.phase_err_m[k].extend(&o.phase_err_m[k]);
-        }
         for k in 0..HORIZONS_S.len() {
             self.horizon_d2[k].extend(&o.horizon_d2[k]);
             for p in 0..3 {
+                self.phase_err_m[p][k].extend(&o.phase_err_m[p][k]);
                 self.phase_d2[p][k].extend(&o.phase_d2[p][k]);
             }
         }
@@ -566,9 +565,7 @@ pub fn score_ticks(
             } else {
                 Phase::Free
             };
-            if (h - PHASE_HORIZON_S).abs() < 1e-9 {
-                s.phase_err_m[phase as usize].push(err);
-            }
+            s.phase_err_m[phase as usize][k].push(err);
             if let Some(Some(cov)) = tick.predicted_cov.get(k) {
                 let e = [future[0] - r.predicted[k][0], future[1] - r.predicted[k][1]];
                 let m = mahalanobis(e, *cov);

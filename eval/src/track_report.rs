@@ -15,6 +15,8 @@ use tools::tracks::{TimeUnit, TrackFile};
 
 /// Horizons the tables show (the JSON and the chart have all of [`HORIZONS_S`]).
 pub const TABLE_HORIZONS_S: [f64; 3] = [0.5, 1.0, 2.0];
+/// The short horizons the lag table shows.
+pub const SHORT_HORIZONS_S: [f64; 2] = [0.1, 0.2];
 
 pub const SECTION_BEGIN: &str = "<!-- evaluate-tracks:begin -->";
 pub const SECTION_END: &str = "<!-- evaluate-tracks:end -->";
@@ -101,8 +103,8 @@ pub struct MethodSummary {
     pub stop_relative_error: Option<Spread>,
     pub stop_within_10_percent: Option<f64>,
     pub stop_not_predicted: usize,
-    /// Errors [`PHASE_HORIZON_S`] ahead by phase, keyed by [`Phase::name`].
-    pub phase_error_m: BTreeMap<String, Spread>,
+    /// Errors per horizon ([`horizon_key`]) by phase, keyed by [`Phase::name`].
+    pub phase_error_m: BTreeMap<String, BTreeMap<String, Spread>>,
     /// How the served covariance covers the true position (methods that serve one): per
     /// horizon ([`horizon_key`]), over all states (`"all"`) and per [`Phase::name`] ...
     pub coverage_95: BTreeMap<String, BTreeMap<String, Coverage>>,
@@ -211,13 +213,18 @@ impl MethodSummary {
                 },
             ),
             stop_not_predicted: s.stop_not_predicted,
-            phase_error_m: Phase::ALL
-                .iter()
-                .map(|p| {
-                    (
-                        p.name().to_string(),
-                        Spread::of(&s.phase_err_m[*p as usize]),
-                    )
+            phase_error_m: (0..HORIZONS_S.len())
+                .map(|k| {
+                    let by = Phase::ALL
+                        .iter()
+                        .map(|p| {
+                            (
+                                p.name().to_string(),
+                                Spread::of(&s.phase_err_m[*p as usize][k]),
+                            )
+                        })
+                        .collect();
+                    (horizon_key(HORIZONS_S[k]), by)
                 })
                 .collect(),
             coverage_95: (0..HORIZONS_S.len())
@@ -399,15 +406,44 @@ pub fn markdown(rep: &TracksReport) -> String {
         s.push_str(&format!(" {} |", p.name()));
     }
     s.push_str("\n|---|---|---|---|\n");
+    let phase_cell = |m: &MethodSummary, h: f64, p: Option<Phase>| {
+        let spread = match p {
+            Some(p) => m
+                .phase_error_m
+                .get(&horizon_key(h))
+                .and_then(|by| by.get(p.name())),
+            None => m.horizon_error_m.get(&horizon_key(h)),
+        };
+        spread.map_or("–".into(), cm)
+    };
     for m in &rep.methods {
         s.push_str(&format!("| {} |", m.method));
         for p in Phase::ALL {
-            s.push_str(&format!(
-                " {} |",
-                m.phase_error_m.get(p.name()).map_or("–".into(), cm)
-            ));
+            s.push_str(&format!(" {} |", phase_cell(m, PHASE_HORIZON_S, Some(p))));
         }
         s.push('\n');
+    }
+    s.push_str(&format!(
+        "\nThe first moments ahead, where a path that lags a bounce or a strike shows (cm, \
+         median / p90 (states)); the windows as above.\n\n\
+         | method | horizon | all | {} | {} | {} |\n|---|---|---|---|---|---|\n",
+        Phase::AfterPush.name(),
+        Phase::AcrossBounce.name(),
+        Phase::Free.name()
+    ));
+    for m in &rep.methods {
+        for h in SHORT_HORIZONS_S {
+            s.push_str(&format!(
+                "| {} | {} s | {} |",
+                m.method,
+                horizon_key(h),
+                phase_cell(m, h, None)
+            ));
+            for p in Phase::ALL {
+                s.push_str(&format!(" {} |", phase_cell(m, h, Some(p))));
+            }
+            s.push('\n');
+        }
     }
     s.push_str(&format!(
         "\nWall bounces with nothing else changing the ball's course within {:.1} s, as the core \

@@ -11,7 +11,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// Prediction horizons at which every method is scored (seconds).
-pub const HORIZONS_S: [f64; 7] = [0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0];
+pub const HORIZONS_S: [f64; 7] = [0.1, 0.2, 0.5, 0.75, 1.0, 1.5, 2.0];
 /// Spacing of the evaluation ticks.
 pub const TICK_S: f64 = 0.05;
 /// How far ahead a predicted wall bounce is looked for.
@@ -278,7 +278,7 @@ impl Spread {
     }
 }
 
-/// "0.1", "0.25", "1.0": horizon keys as the report names them.
+/// "0.1", "0.2", "1.0": horizon keys as the report names them.
 pub fn horizon_key(h: f64) -> String {
     if h.fract() == 0.0 {
         format!("{h:.1}")

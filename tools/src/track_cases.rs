@@ -14,6 +14,13 @@
 //!   friction (0.05 m/s²), walls returning 0.9 of the normal speed, struck by mallets
 //!   every 0.3–1.5 s at speeds of median about 1.5 m/s and up to 5 m/s (most of its motion
 //!   between strikes is bounces off the walls); 60 s at 120 Hz.
+//! - `puck-mallets`: an air-hockey puck unlike the core's model in every way a recording
+//!   differs: a 1.95 m × 1.04 m table, drag that grows with speed (0.02 m/s² plus 0.08 /s),
+//!   walls that return 0.75–0.95 of the normal speed and 0.8–1.0 of the tangential and
+//!   turn the puck a few degrees more (spin, an uneven rail), mallets that push it for
+//!   15–40 ms rather than strike it at an instant (a third of them hiding it while they do
+//!   and up to 60 ms after), a tracker's own 1 mm of jitter and 0.5 ms of timing jitter;
+//!   struck every 0.3–1.5 s at 0.5–6 m/s; 60 s at 120 Hz.
 //! - `kick-on-arrival`: as `relocations`, but the ball is kicked the moment it is put
 //!   down (after 0.05 s), so a tracker sees a ball appear somewhere new already moving.
 //! - `hard-kicks`: as `relocations`, on a 9.6 m × 6.6 m pitch, kicked at 3–7 m/s by a
@@ -32,10 +39,11 @@ use crate::tracks::TrackSample;
 use sim::Rng;
 
 /// The cases, by name.
-pub const CASES: [&str; 5] = [
+pub const CASES: [&str; 6] = [
     "relocations",
     "puck",
     "puck-hits",
+    "puck-mallets",
     "kick-on-arrival",
     "hard-kicks",
 ];
@@ -107,6 +115,7 @@ pub fn case(name: &str, seed: u64) -> Option<Case> {
         "hard-kicks" => Some(hard_kicks(&mut rng, seed)),
         "puck" => Some(puck(&mut rng, seed)),
         "puck-hits" => Some(puck_hits(&mut rng, seed)),
+        "puck-mallets" => Some(puck_mallets(&mut rng, seed)),
         _ => None,
     }
 }
@@ -341,6 +350,112 @@ fn puck_hits(rng: &mut Rng, seed: u64) -> Case {
              restitution 0.9, struck every 0.3-1.5 s at 0.5-5 m/s (most strikes gentle); \
              120 Hz, 60 s; written by `cargo run --release -p tools --bin sim_track -- --case \
              puck-hits --seed {seed}`"
+        ),
+    }
+}
+
+/// A mallet's push under way: the puck's velocity moves from `from` to `to` until `end_s`.
+struct Push {
+    from: [f64; 2],
+    to: [f64; 2],
+    start_s: f64,
+    end_s: f64,
+    /// The puck is hidden until this time.
+    hidden_until_s: f64,
+}
+
+fn puck_mallets(rng: &mut Rng, seed: u64) -> Case {
+    let (len, wid, r) = (1.95, 1.04, 0.032);
+    let half = [len / 2.0 - r, wid / 2.0 - r];
+    let (drag_mps2, drag_per_s) = (0.02, 0.08);
+    let rate_s = 1.0 / 120.0;
+    let duration_s = 60.0;
+    let mut samples = Vec::new();
+    let (mut p, mut v) = ([0.0_f64, 0.0_f64], [0.0_f64, 0.0_f64]);
+    let (mut t, mut next_sample, mut next_strike) = (0.0, 0.0, 0.2);
+    let mut push: Option<Push> = None;
+    while t < duration_s {
+        if push.is_none() && t >= next_strike {
+            // Most strikes gentle, a few hard: 0.5 m/s plus 5.5 m/s times u³.
+            let u = rng.uniform();
+            let speed = 0.5 + 5.5 * u * u * u;
+            let heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+            let contact_s = rng.range(0.015, 0.04);
+            let hidden_s = if rng.chance(1.0 / 3.0) {
+                contact_s + rng.range(0.0, 0.06)
+            } else {
+                0.0
+            };
+            push = Some(Push {
+                from: v,
+                to: [speed * heading.cos(), speed * heading.sin()],
+                start_s: t,
+                end_s: t + contact_s,
+                hidden_until_s: t + hidden_s,
+            });
+            next_strike = t + rng.range(0.3, 1.5);
+        }
+        match &push {
+            Some(m) if t < m.end_s => {
+                let f = ((t - m.start_s) / (m.end_s - m.start_s)).clamp(0.0, 1.0);
+                v = [
+                    m.from[0] + (m.to[0] - m.from[0]) * f,
+                    m.from[1] + (m.to[1] - m.from[1]) * f,
+                ];
+            }
+            _ => {
+                let speed = v[0].hypot(v[1]);
+                if speed > 0.0 {
+                    let a = drag_mps2 + drag_per_s * speed;
+                    let k = (speed - a * STEP_S).max(0.0) / speed;
+                    v = [v[0] * k, v[1] * k];
+                }
+            }
+        }
+        let hidden = push.as_ref().is_some_and(|m| t < m.hidden_until_s);
+        if push.as_ref().is_some_and(|m| t >= m.end_s && !hidden) {
+            push = None;
+        }
+        if t >= next_sample - 1e-9 {
+            if !hidden {
+                samples.push(TrackSample {
+                    t_s: t + 0.0005 * rng.normal(),
+                    position_m: [p[0] + 0.001 * rng.normal(), p[1] + 0.001 * rng.normal()],
+                });
+            }
+            next_sample += rate_s;
+        }
+        for i in 0..2 {
+            p[i] += v[i] * STEP_S;
+            if p[i].abs() > half[i] {
+                p[i] = p[i].signum() * (2.0 * half[i] - p[i].abs());
+                let j = 1 - i;
+                v[i] *= -rng.range(0.75, 0.95);
+                v[j] *= rng.range(0.8, 1.0);
+                // Spin and an uneven rail turn it a few degrees more.
+                let turn = 3f64.to_radians() * rng.normal();
+                let (c, s) = (turn.cos(), turn.sin());
+                v = [c * v[0] - s * v[1], s * v[0] + c * v[1]];
+                // A turn may not send it back into the rail it left.
+                if v[i] * p[i] > 0.0 {
+                    v[i] = -v[i];
+                }
+            }
+        }
+        t += STEP_S;
+    }
+    // The timing jitter must keep the samples in order.
+    samples.dedup_by(|b, a| b.t_s <= a.t_s);
+    Case {
+        samples,
+        pitch: "1.95x1.04",
+        source: format!(
+            "SYNTHETIC, not a real recording: a puck on a 1.95 m x 1.04 m walled table, drag \
+             0.02 m/s2 plus 0.08 /s, walls 0.75-0.95 normal and 0.8-1.0 tangential turning it \
+             3 degrees more (sd), mallets pushing it for 15-40 ms every 0.3-1.5 s to 0.5-6 \
+             m/s (a third hiding it for up to 60 ms more), 1 mm and 0.5 ms of tracker jitter; \
+             120 Hz, 60 s; written by `cargo run --release -p tools --bin sim_track -- --case \
+             puck-mallets --seed {seed}`"
         ),
     }
 }

@@ -6,11 +6,12 @@
 //! in-order arrival would have given. Older ones are counted and dropped. The fused
 //! estimate is never fed back in as an observation.
 
+use super::calibration::Phase as CalibrationPhase;
 use super::filter::{BallFilter, DECEL, RESTITUTION};
 use super::intercept::{InterceptSolution, intercept};
-use super::motion::{Bounds, speed};
+use super::motion::{Bounds, fly, speed};
 use super::predict;
-use super::spread::{covariance_at, spread, within_reach};
+use super::spread::{covariance_at, mix, mixed, spread, within_reach};
 use super::tracker::{MotionEventKind, NothingSeen, ObsInput, RobotTrust, Tracker, TrackerConfig};
 use super::views::{Footprint, FootprintError, Views};
 use nalgebra::Matrix2;
@@ -125,6 +126,10 @@ pub struct FusionCounters {
     /// Camera footprints kept, and refused (not a polygon, the whole pitch, ...).
     pub footprints_accepted: u64,
     pub footprints_rejected: u64,
+    /// The estimate's forecasts scored against later sightings, and of those the ones
+    /// outside the served 95 % region ([`super::calibration`]).
+    pub forecasts_scored: u64,
+    pub forecasts_outside_95: u64,
 }
 
 fn saturate(n: u64) -> u32 {
@@ -235,6 +240,8 @@ impl Fusion {
             bounces_seen: self.tracker().bounces_seen(),
             singular_updates: self.tracker().singular_updates(),
             robot_slots_reused: self.tracker().robot_slots_reused(),
+            forecasts_scored: self.tracker().calibration().counts().0,
+            forecasts_outside_95: self.tracker().calibration().counts().1,
             misses_in_view: self.tracker().misses(),
             ..self.counters
         }
@@ -565,6 +572,33 @@ impl Fusion {
                 tracker.bounds(),
                 &noise,
             );
+            let phase = tracker.calibration_phase(f.time_s());
+            tracker.calibration().apply(phase, &mut prediction);
+            // A kick suspected but not yet clear: the covariance covers both branches.
+            if let Some((kicked, likely)) = tracker.suspected_kick(f.time_s()) {
+                let kicked_model = kicked.model(&tracker.motion());
+                let mut other = predict::path(
+                    kicked.position(),
+                    kicked.velocity(),
+                    &kicked_model,
+                    tracker.bounds(),
+                    prediction.stamp,
+                    horizon_s,
+                    self.cfg.sample_dt_s,
+                );
+                spread(
+                    &mut other,
+                    kicked.state(),
+                    kicked.covariance(),
+                    &kicked_model,
+                    tracker.bounds(),
+                    &noise,
+                );
+                tracker
+                    .calibration()
+                    .apply(CalibrationPhase::AfterKick, &mut other);
+                mix(&mut prediction, &other, likely);
+            }
         }
         prediction
     }
@@ -598,6 +632,9 @@ impl Fusion {
         )?;
         if let Some(track) = tracker.main() {
             let noise = tracker.prediction_noise_for(track);
+            let scale = tracker
+                .calibration()
+                .scale(tracker.calibration_phase(f.time_s()), s.t_s);
             let cov = covariance_at(
                 f.state(),
                 f.covariance(),
@@ -606,14 +643,38 @@ impl Fusion {
                 &noise,
                 s.t_s,
                 s.point_m,
-            );
+            )
+            .map(|v| v * scale);
             // The robot reaches the ball when it touches it, and what time it has to spare
             // it can spend going further.
             let spare_s = (s.t_s
                 - (s.point_m[0] - robot_m[0]).hypot(s.point_m[1] - robot_m[1]) / speed_mps)
                 .max(0.0);
             let reach_m = self.cfg.pitch.ball_radius_m + ROBOT_REACH_M + speed_mps * spare_s;
-            s.probability = Some(within_reach(cov, reach_m));
+            let mut probability = within_reach(cov, reach_m);
+            // A kick suspected but not yet clear: the ball may be on the other branch.
+            if let Some((kicked, likely)) = tracker.suspected_kick(f.time_s()) {
+                let kicked_model = kicked.model(&tracker.motion());
+                let flown = fly(
+                    kicked.position(),
+                    kicked.velocity(),
+                    s.t_s,
+                    &kicked_model,
+                    tracker.bounds(),
+                );
+                let c_kicked = covariance_at(
+                    kicked.state(),
+                    kicked.covariance(),
+                    &kicked_model,
+                    tracker.bounds(),
+                    &noise,
+                    s.t_s,
+                    flown.position,
+                );
+                let c = mixed(cov, c_kicked, s.point_m, flown.position, 1.0);
+                probability = (1.0 - likely) * probability + likely * within_reach(c, reach_m);
+            }
+            s.probability = Some(probability);
         }
         Some(s)
     }

@@ -9,8 +9,10 @@
 //!   stretch and bounce the estimate is seen through.
 //! - [`views`]: the robots' camera footprints, and a ball in view that is not seen.
 //! - [`predict`]: path, bounces, stop point; [`spread`]: how sure each predicted point and
-//!   the stop are; [`intercept`]: where a robot meets the ball.
+//!   the stop are, scaled by what [`calibration`] learns from the core's own forecasts;
+//!   [`intercept`]: where a robot meets the ball.
 
+pub mod calibration;
 pub mod filter;
 pub mod fusion;
 pub mod intercept;

@@ -68,6 +68,31 @@ pub fn spread(
     }
 }
 
+/// Widens the covariances of `served` to cover another branch of the flight too: `other`
+/// (the same sample times), taken with probability `weight`. Each becomes the mixture's
+/// second moment about the served point: (1 − w)·C + w·(C' + d·dᵀ), d the other branch's
+/// point less the served one. The served points stay those of `served`.
+pub fn mix(served: &mut Prediction, other: &Prediction, weight: f64) {
+    let w = weight.clamp(0.0, 1.0);
+    for (s, o) in served.samples.iter_mut().zip(&other.samples) {
+        if let (Some(c), Some(c_other)) = (&mut s.covariance_m2, o.covariance_m2) {
+            *c = mixed(*c, c_other, s.position_m, o.position_m, w);
+        }
+    }
+    if let (Some(stop), Some(o)) = (&mut served.stop, &other.stop)
+        && let (Some(c), Some(c_other)) = (&mut stop.covariance_m2, o.covariance_m2)
+    {
+        *c = mixed(*c, c_other, stop.position_m, o.position_m, w);
+    }
+}
+
+/// (1 − w)·`c` + w·(`c_other` + d·dᵀ), d = `other` − `at`.
+pub fn mixed(c: [f64; 4], c_other: [f64; 4], at: [f64; 2], other: [f64; 2], w: f64) -> [f64; 4] {
+    let d = [other[0] - at[0], other[1] - at[1]];
+    let outer = [d[0] * d[0], d[0] * d[1], d[1] * d[0], d[1] * d[1]];
+    std::array::from_fn(|i| (1.0 - w) * c[i] + w * (c_other[i] + outer[i]))
+}
+
 /// The covariance of the ball's position `t_s` after the filter's time, about `around`
 /// (the served point there), as [`spread`] gives it for a predicted point.
 pub fn covariance_at(

@@ -8,8 +8,10 @@
 //! stream ([`acquire`]); a kick nobody reports re-initialises the track's velocity from a
 //! change point ([`onset`]). docs/fusion.md states the rules.
 
+use super::calibration::{AFTER_KICK_S, Calibration, HORIZONS_S, Phase};
 use super::filter::{BallFilter, DECEL, Innovation, Learn, ModelPrior, ProcessNoise, RESTITUTION};
-use super::motion::{Bounds, MotionModel, speed};
+use super::motion::{Bounds, MotionModel, fly, speed};
+use super::spread::spread;
 use super::surface::{BounceEvent, Surface};
 use super::views::{Views, existence};
 use nalgebra::Matrix2;
@@ -147,11 +149,18 @@ pub struct Tracker {
     robot_slots_reused: u64,
     /// Frames that looked at a hypothesis and did not see it (negative information).
     misses: u64,
+    /// How the estimate's forecasts fared: the served covariances' scales.
+    calibration: Calibration,
     /// Time of the newest applied observation.
     pub t_s: f64,
 }
 
 const HIT_HISTORY_S: f64 = 1.5;
+/// A kick from below this speed, or changing the velocity by more, was a push: the
+/// forecasts from before it are not scored ([`Calibration::kicked`]).
+const PUSH_MPS: f64 = 0.5;
+/// ... unless it came this close to a wall, where a bounce the flight mistook is likelier.
+const PUSH_WALL_M: f64 = 0.15;
 /// Two sightings closer in time than this are one frame's (two cameras, or a duplicate):
 /// no speed can be read from them.
 const MIN_PAIR_DT_S: f64 = 0.01;
@@ -197,6 +206,7 @@ impl Tracker {
             outside_walls: 0,
             pairs: 0,
             misses: 0,
+            calibration: Calibration::default(),
             t_s: f64::NEG_INFINITY,
         }
     }
@@ -480,6 +490,10 @@ impl Tracker {
                 self.update_track(m, ri, o, &r_eff);
             }
             (None, Some((i, d2))) => {
+                if Some(i) == self.main {
+                    let id = self.tracks[i].id;
+                    self.calibration.sighting(o.t_s, id, o.position_m, &r_eff);
+                }
                 if let Some(kick) = self.note_onset(i, d2, &sighting) {
                     self.kicked(i, kick, &sighting);
                 }
@@ -495,6 +509,67 @@ impl Tracker {
         self.promote(o.t_s);
         self.prune(o.t_s);
         self.sync_surface();
+        self.keep_forecast(o.t_s);
+    }
+
+    /// Keeps a forecast of the estimate just updated at `t_s`, when one is due.
+    fn keep_forecast(&mut self, t_s: f64) {
+        let Some(track) = self.main() else { return };
+        if track.last_hit_s != t_s || !self.calibration.due(t_s) {
+            return;
+        }
+        let f = &track.filter;
+        let model = f.model(&self.motion());
+        let noise = self.prediction_noise_for(track);
+        let mut samples = Vec::with_capacity(HORIZONS_S.len());
+        for h in HORIZONS_S {
+            let flown = fly(f.position(), f.velocity(), h, &model, &self.bounds);
+            samples.push(proto::PathSample {
+                t_s: h,
+                position_m: flown.position,
+                velocity_mps: flown.velocity,
+                covariance_m2: None,
+            });
+        }
+        let mut forecast = proto::Prediction {
+            version: proto::VERSION,
+            stamp: proto::Stamp::from_secs_f64(0.0),
+            horizon_s: HORIZONS_S[HORIZONS_S.len() - 1],
+            samples,
+            bounces: Vec::new(),
+            stop: None,
+        };
+        spread(
+            &mut forecast,
+            f.state(),
+            f.covariance(),
+            &model,
+            &self.bounds,
+            &noise,
+        );
+        let (id, phase) = (track.id, self.phase_of(track, t_s));
+        self.calibration.forecast(t_s, id, phase, &forecast);
+    }
+
+    /// Whether `track` was kicked or began within [`AFTER_KICK_S`] of `t_s`.
+    fn phase_of(&self, track: &Track, t_s: f64) -> Phase {
+        let kicked_s = track.boost_until_s - self.cfg.kick_boost_s;
+        if t_s - kicked_s < AFTER_KICK_S || t_s - track.born_s < AFTER_KICK_S {
+            Phase::AfterKick
+        } else {
+            Phase::Settled
+        }
+    }
+
+    /// The estimate's phase at `t_s` for [`Calibration::apply`] (settled without one).
+    pub fn calibration_phase(&self, t_s: f64) -> Phase {
+        self.main()
+            .map_or(Phase::Settled, |track| self.phase_of(track, t_s))
+    }
+
+    /// How the estimate's forecasts fared, and the scales they taught.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calibration
     }
 
     /// The hypothesis seen once whose sighting `o` continues at the lowest plausible speed.
@@ -683,6 +758,26 @@ impl Tracker {
         let t_s = now.t_s;
         let bounces = kick.bounces;
         let is_main = self.main == Some(i);
+        // A ball kicked from rest, beside a robot or hard (its velocity changed by more than
+        // [`PUSH_MPS`], away from the walls) was pushed: what was forecast before could not
+        // know. A small change of
+        // course in full flight, away from robots, may be the flight's own failure (a
+        // bounce it did not foresee, a floor unlike the model), and its forecasts are scored
+        // as they stand.
+        let before = &self.tracks[i].filter;
+        let (v0, v1) = (before.velocity(), kick.filter.velocity());
+        let p = kick.filter.position();
+        let b = &self.bounds;
+        let gaps = [
+            b.x_max - p[0],
+            p[0] - b.x_min,
+            b.y_max - p[1],
+            p[1] - b.y_min,
+        ];
+        let at_wall = (0..4).any(|k| b.walls[k] && gaps[k] < PUSH_WALL_M);
+        let pushed = speed(v0) < PUSH_MPS
+            || self.near_robot(before.position(), t_s)
+            || (speed([v1[0] - v0[0], v1[1] - v0[1]]) > PUSH_MPS && !at_wall);
         let cfg = &self.cfg;
         let track = &mut self.tracks[i];
         track.filter = kick.filter;
@@ -691,6 +786,9 @@ impl Tracker {
         if bounces.is_empty() {
             track.boost_until_s = track.boost_until_s.max(t_s + cfg.kick_boost_s);
             if is_main {
+                if pushed {
+                    self.calibration.kicked(kick.t_s);
+                }
                 self.motion_log.kick(kick.t_s);
                 self.surface.kick(kick.t_s, kick.speed_mps);
             }

@@ -253,7 +253,7 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
     let c = engine.counters();
     let core = engine.fusion().counters();
     let h = &shell.http;
-    let simple: [(&str, &str, &str, u64); 37] = [
+    let simple: [(&str, &str, &str, u64); 39] = [
         (
             "rf_inputs_received_total",
             "counter",
@@ -337,6 +337,18 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
             "counter",
             "New robot ids that took the fusion's place of one quiet for 30 s, its table of 1024 being full (a flood of made-up ids).",
             core.robot_slots_reused,
+        ),
+        (
+            "rf_forecasts_scored_total",
+            "counter",
+            "Points of the ball estimate's own forecasts scored against the sightings that came when they were due (the path's covariance is calibrated on them).",
+            core.forecasts_scored,
+        ),
+        (
+            "rf_forecasts_outside_95_total",
+            "counter",
+            "Scored forecast points whose sighting fell outside the served 95 % region (about 5 % of rf_forecasts_scored_total when the path's covariance is honest).",
+            core.forecasts_outside_95,
         ),
         (
             "rf_intake_queued",

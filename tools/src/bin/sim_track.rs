@@ -25,8 +25,9 @@ struct Args {
     /// and put down elsewhere between kicks, two-phase slide and roll, 9 m × 6 m),
     /// `kick-on-arrival` (the same, each ball kicked as it is put down), `hard-kicks` (kicks
     /// at 3–7 m/s on a 9.6 m × 6.6 m pitch, a longer slide and a speed-dependent roll),
-    /// `puck` (a nearly frictionless puck on a 2 m × 1 m table, many bounces) or
-    /// `puck-hits` (the same table, struck every 0.3–1.5 s).
+    /// `puck` (a nearly frictionless puck on a 2 m × 1 m table, many bounces),
+    /// `puck-hits` (the same table, struck every 0.3–1.5 s) or `puck-mallets` (a puck
+    /// pushed by mallets that may hide it, drag, uneven rails and a tracker's jitter).
     #[arg(long, conflicts_with_all = ["scenario", "duration_s"])]
     case: Option<String>,
     /// The CSV file to write.

@@ -38,6 +38,22 @@ const ONSET_WATCHED_S: f64 = 0.15;
 /// slide ends, and a wrong end costs more than a roll.
 const MIN_SLIDE_SIGHTINGS: usize = 3;
 
+/// A suspected kick is served (as a branch of the path's covariance) when at least this
+/// likely.
+const MIN_SUSPICION: f64 = 0.9;
+
+/// P(χ² > `d2`) with 2·`n` degrees of freedom (a run of `n` 2-D sightings).
+fn chi2_survival(d2: f64, n: usize) -> f64 {
+    let half = 0.5 * d2.max(0.0);
+    let mut term = 1.0;
+    let mut sum = 1.0;
+    for k in 1..n {
+        term *= half / k as f64;
+        sum += term;
+    }
+    ((-half).exp() * sum).clamp(0.0, 1.0)
+}
+
 /// One sighting of a track and the filter as it was just before it.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Recent {
@@ -229,6 +245,31 @@ impl Tracker {
             }
             WallVerdict::Wait => None,
         }
+    }
+
+    /// A kick the estimate's newest sightings suggest but do not yet make clear: the
+    /// filter kicked at the first of its trailing run of surprising sightings, flown to
+    /// `t_s`, and how likely the kick is (one minus the chance that noise alone gives the
+    /// run's d², kept only when at least [`MIN_SUSPICION`]).
+    pub fn suspected_kick(&self, t_s: f64) -> Option<(BallFilter, f64)> {
+        let track = self.main()?;
+        let recent = &track.recent;
+        if recent.back().is_none_or(|s| t_s - s.t_s > RECENT_S) {
+            return None;
+        }
+        let mut start = recent.len();
+        while start > 0 && recent[start - 1].d2 > self.cfg.surprise_chi2 {
+            start -= 1;
+        }
+        let first = recent.get(start)?;
+        let run = recent.iter().skip(start);
+        let d2: f64 = run.clone().map(|s| s.d2).sum();
+        let likely = 1.0 - chi2_survival(d2, recent.len() - start);
+        if likely < MIN_SUSPICION {
+            return None;
+        }
+        let (f, _) = self.refly(&first.before, run, t_s);
+        Some((f, likely))
     }
 
     /// Keeps a sighting of track `i`, before its filter is updated by it.
