@@ -20,6 +20,7 @@
 use nalgebra::Matrix2;
 use proto::Prediction;
 use std::collections::VecDeque;
+use std::sync::Arc;
 
 /// Horizons the forecasts are scored at, seconds.
 pub const HORIZONS_S: [f64; 6] = [0.1, 0.25, 0.5, 1.0, 1.5, 2.0];
@@ -31,6 +32,8 @@ pub const FORECAST_EVERY_S: f64 = 0.1;
 const SCORE_WITHIN_S: f64 = 0.12;
 /// A score counts once this long has passed after its sighting with no kick inferred.
 pub const CONFIRM_S: f64 = 0.2;
+/// Scores are committed in batches this far apart.
+const COMMIT_EVERY_S: f64 = 0.3;
 /// Forecasts made this soon after a kick (or a new estimate) have their own scale.
 pub const AFTER_KICK_S: f64 = 0.5;
 /// Sightings whose variance is more than this share of the forecast's do not score it.
@@ -82,8 +85,9 @@ struct Score {
 /// The learned scales and the forecasts still to be scored.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Calibration {
-    /// The newest scores' d², per phase and horizon (oldest first) ...
-    d2: [[VecDeque<f32>; N]; 2],
+    /// The newest scores' d², per phase and horizon (oldest first; shared between the
+    /// tracker's snapshots until one of them scores) ...
+    d2: Arc<[[VecDeque<f32>; N]; 2]>,
     /// ... and the scale they make.
     scale: [[f64; N]; 2],
     forecasts: VecDeque<Forecast>,
@@ -96,7 +100,9 @@ pub struct Calibration {
 impl Default for Calibration {
     fn default() -> Self {
         Calibration {
-            d2: std::array::from_fn(|_| std::array::from_fn(|_| VecDeque::new())),
+            d2: Arc::new(std::array::from_fn(|_| {
+                std::array::from_fn(|_| VecDeque::with_capacity(WINDOW))
+            })),
             scale: [[1.0; N]; 2],
             forecasts: VecDeque::new(),
             pending: VecDeque::new(),
@@ -152,8 +158,8 @@ impl Calibration {
             self.forecasts.pop_front();
         }
         for f in self.forecasts.iter_mut().filter(|f| f.track == track) {
-            for k in 0..N {
-                let late = t_s - f.t0_s - HORIZONS_S[k];
+            for (k, h) in HORIZONS_S.iter().enumerate() {
+                let late = t_s - f.t0_s - h;
                 if f.scored[k] || late < 0.0 {
                     continue;
                 }
@@ -200,28 +206,40 @@ impl Calibration {
         self.pending.retain(|p| p.sighting_t_s < onset_s);
     }
 
+    /// Commits the scores [`CONFIRM_S`] old, in batches at most [`COMMIT_EVERY_S`] apart
+    /// (the windows are shared with the tracker's snapshots: each batch copies them once).
     fn commit(&mut self, now_s: f64) {
-        while self
+        if self
             .pending
             .front()
-            .is_some_and(|p| now_s - p.sighting_t_s >= CONFIRM_S)
+            .is_none_or(|p| now_s - p.sighting_t_s < CONFIRM_S + COMMIT_EVERY_S)
         {
-            let Some(p) = self.pending.pop_front() else {
-                break;
-            };
+            return;
+        }
+        let windows = Arc::make_mut(&mut self.d2);
+        let mut touched = [false; 2];
+        while let Some(p) = self
+            .pending
+            .front()
+            .filter(|p| now_s - p.sighting_t_s >= CONFIRM_S)
+            .copied()
+        {
+            self.pending.pop_front();
             self.scores += 1;
             self.misses += u64::from(p.d2 > self.scale[p.phase as usize][p.horizon] * D2_95);
-            let window = &mut self.d2[p.phase as usize][p.horizon];
+            let window = &mut windows[p.phase as usize][p.horizon];
             if window.len() == WINDOW {
                 window.pop_front();
             }
             window.push_back(p.d2 as f32);
-            // Each horizon's scale leans on the one before while it has few scores: a
-            // flight that misses at 1 s misses at 2 s as well.
-            let phase = p.phase as usize;
+            touched[p.phase as usize] = true;
+        }
+        // Each horizon's scale leans on the one before while it has few scores: a flight
+        // that misses at 1 s misses at 2 s as well.
+        for phase in (0..2).filter(|p| touched[*p]) {
             let mut prior = 1.0;
             for k in 0..N {
-                self.scale[phase][k] = scale_of(&self.d2[phase][k], prior);
+                self.scale[phase][k] = scale_of(&windows[phase][k], prior);
                 prior = self.scale[phase][k];
             }
         }
@@ -277,10 +295,10 @@ fn scale_of(window: &VecDeque<f32>, prior: f64) -> f64 {
     if window.is_empty() {
         return prior;
     }
-    let mut sorted: Vec<f32> = window.iter().copied().collect();
-    sorted.sort_by(f32::total_cmp);
-    let k = ((sorted.len() as f64 * 0.95).ceil() as usize).clamp(1, sorted.len()) - 1;
-    let wanted = (f64::from(sorted[k]) / D2_95).clamp(SCALE_RANGE.0, SCALE_RANGE.1);
+    let mut values: Vec<f32> = window.iter().copied().collect();
+    let k = ((values.len() as f64 * 0.95).ceil() as usize).clamp(1, values.len()) - 1;
+    let (_, q95, _) = values.select_nth_unstable_by(k, f32::total_cmp);
+    let wanted = (f64::from(*q95) / D2_95).clamp(SCALE_RANGE.0, SCALE_RANGE.1);
     let trust = (window.len() as f64 / TRUSTED_AFTER as f64).min(1.0);
     (trust * wanted.ln() + (1.0 - trust) * prior.ln()).exp()
 }

@@ -125,16 +125,27 @@ pub fn within_reach(cov: [f64; 4], reach_m: f64) -> f64 {
     (1.0 - (-reach_m * reach_m / (2.0 * det.sqrt())).exp()).clamp(0.0, 1.0)
 }
 
-/// The twelve symmetric sigma points x ± √6 · (the covariance's square-root columns), with
-/// the model parameters kept inside the filter's bounds.
+/// The twelve symmetric sigma points x ± √6 · (the columns of a square root of the
+/// covariance: its Cholesky factor, or through its eigenvectors when it is only
+/// semi-definite), with the model parameters kept inside the filter's bounds.
 fn sigma_points(x: &State, p: &Cov) -> Vec<State> {
     let sym = 0.5 * (p + p.transpose());
-    let eig = SymmetricEigen::new(sym);
     let n = 6.0_f64;
+    let root: Cov = match sym.cholesky() {
+        Some(c) => c.l() * n.sqrt(),
+        None => {
+            let eig = SymmetricEigen::new(sym);
+            let mut r = eig.eigenvectors;
+            for i in 0..6 {
+                let scale = (n * eig.eigenvalues[i].max(0.0)).sqrt();
+                r.column_mut(i).scale_mut(scale);
+            }
+            r
+        }
+    };
     let mut out = Vec::with_capacity(12);
     for i in 0..6 {
-        let lambda = eig.eigenvalues[i].max(0.0);
-        let col = eig.eigenvectors.column(i) * (n * lambda).sqrt();
+        let col = root.column(i);
         for sign in [1.0, -1.0] {
             let mut s = x + col * sign;
             s[DECEL] = s[DECEL].clamp(DECEL_RANGE.0, DECEL_RANGE.1);

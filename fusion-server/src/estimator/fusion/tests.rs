@@ -632,3 +632,53 @@ fn a_kicked_ball_is_predicted_to_slide_then_roll() {
         "{err} m sliding, {err_roll} m rolling"
     );
 }
+
+#[test]
+fn a_kick_suspected_but_not_yet_clear_widens_the_path_but_does_not_move_it() {
+    // One 10 Hz robot sees a ball at rest for 1.5 s, then one sighting 0.3 m off: a kick
+    // at 3 m/s or a bad frame, too soon to tell.
+    let mut f = Fusion::new(FusionConfig::default());
+    let mut rng = Lcg(3);
+    let mut k = 0;
+    while k <= 15 {
+        let t = k as f64 * 0.1;
+        let p = [0.5 + 0.01 * rng.normal(), 0.2 + 0.01 * rng.normal()];
+        f.ingest(&obs("a", k, t, p, 0.01), Stamp(T0).offset_secs(t));
+        k += 1;
+    }
+    let at_1 = |st: &BallState| {
+        let s = st
+            .prediction
+            .samples
+            .iter()
+            .find(|s| (s.t_s - 1.0).abs() < 1e-6)
+            .unwrap();
+        (s.position_m, s.covariance_m2.unwrap())
+    };
+    let before = f.ball_state(Stamp(T0).offset_secs(1.55)).unwrap();
+    let (p_before, c_before) = at_1(&before);
+    let t = 1.6;
+    f.ingest(&obs("a", k, t, [0.8, 0.2], 0.01), Stamp(T0).offset_secs(t));
+    let after = f.ball_state(Stamp(T0).offset_secs(1.65)).unwrap();
+    let (p_after, c_after) = at_1(&after);
+    assert!(
+        (p_after[0] - p_before[0]).abs() < 0.02,
+        "the served path stays the unkicked one: {p_before:?} then {p_after:?}"
+    );
+    assert!(
+        c_after[0] > 50.0 * c_before[0] && c_after[0] > 0.04,
+        "the 1 s point's x variance: {} then {}",
+        c_before[0],
+        c_after[0]
+    );
+    // The next sightings on the same line make the kick clear: the path follows it.
+    for (j, x) in [1.1, 1.4].iter().enumerate() {
+        let t = 1.7 + 0.1 * j as f64;
+        f.ingest(
+            &obs("a", k + 1 + j as u64, t, [*x, 0.2], 0.01),
+            Stamp(T0).offset_secs(t),
+        );
+    }
+    let kicked = f.ball_state(Stamp(T0).offset_secs(1.85)).unwrap();
+    assert!(kicked.velocity_mps[0] > 1.5, "{:?}", kicked.velocity_mps);
+}
