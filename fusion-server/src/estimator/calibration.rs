@@ -238,9 +238,9 @@ impl Calibration {
         // that misses at 1 s misses at 2 s as well.
         for phase in (0..2).filter(|p| touched[*p]) {
             let mut prior = 1.0;
-            for k in 0..N {
-                self.scale[phase][k] = scale_of(&windows[phase][k], prior);
-                prior = self.scale[phase][k];
+            for (scale, window) in self.scale[phase].iter_mut().zip(&windows[phase]) {
+                *scale = scale_of(window, prior);
+                prior = *scale;
             }
         }
     }

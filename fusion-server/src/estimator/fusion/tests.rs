@@ -1,3 +1,4 @@
+#![allow(clippy::unwrap_used)]
 use super::*;
 use proto::Pose2;
 use proto::test_support::{isotropic, observation};
