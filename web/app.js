@@ -15,7 +15,7 @@ import { StripChart } from "./chart.js";
 import { ReplayBar } from "./replay.js";
 import { CameraFigure } from "./camera.js";
 import { CAMERAS, ViewStream, viewKey } from "./views.js";
-import { showBall, showIntercept, showPerception, showRejected, showRobots, showServer } from "./panel.js";
+import { showBall, showIntercept, showPerception, showRecording, showRejected, showRobots, showServer } from "./panel.js";
 
 /// No state for this long: the page says the picture is stale.
 const STALE_MS = 1500;
@@ -261,6 +261,7 @@ function frame(now) {
       showPerception(model.selected, r && r.status);
     }
     showRejected(v.rejected);
+    showRecording(v.recording);
     showServer({ frames_per_s: rate(model.arrivals), draw_fps: rate(drawTimes), observations: (v.observations || []).length });
     showIntercept(model.selected && { robot_id: model.selected, reply: model.interceptReply, error: model.interceptError });
     const t = v.stamp / NS;

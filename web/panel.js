@@ -147,6 +147,33 @@ export function showServer(stats) {
     `${stats.observations} sightings in the last 2 s`;
 }
 
+/// How the match log's recording stands (`recording` of the state view, null when the
+/// server records nothing): a stopped recording is said in the header too, in red.
+export function showRecording(rec) {
+  const p = el("recording");
+  const alert = el("rec-alert");
+  if (!rec) {
+    p.textContent = "not recording";
+    p.classList.remove("stopped");
+    alert.hidden = true;
+    return;
+  }
+  if (rec.stopped) {
+    const since = typeof rec.stopped_for_s === "number" ? ` ${Math.round(rec.stopped_for_s)} s ago` : "";
+    p.textContent = `Recording stopped${since}: ${rec.reason}. ${rec.lost_since_stopped} messages not recorded since; ` +
+      "it resumes into a new file as soon as writing succeeds. The ball is still served.";
+    p.classList.add("stopped");
+    alert.textContent = "recording stopped";
+    alert.hidden = false;
+    return;
+  }
+  const file = rec.file ? String(rec.file).split("/").pop() : "a new file";
+  const resumed = rec.resumed ? ` (resumed ${rec.resumed}× after stopping)` : "";
+  p.textContent = `Recording to ${file}${resumed}.`;
+  p.classList.remove("stopped");
+  alert.hidden = true;
+}
+
 export function showIntercept(sel) {
   const p = el("intercept");
   if (!sel) {

@@ -40,4 +40,8 @@ pub trait MatchLog: Send + Sync + Debug {
     fn queued_bytes(&self) -> u64 {
         0
     }
+    /// How the recording stands (`None`: a log that cannot fail, or none).
+    fn health(&self) -> Option<record::RecordingHealth> {
+        None
+    }
 }

@@ -186,8 +186,18 @@ impl NetConfig {
             "scouting/gossip/enabled",
             json(&self.gossip_scouting),
         )?;
-        // Keep retrying a connect endpoint that is not up yet (robots may start first).
+        // Keep retrying a connect endpoint that is not up yet (robots may start first), or
+        // gone (a server restarted): first after 0.1 s, then half as long again each time
+        // up to 0.5 s, so that a peer is back within a second of the other end listening
+        // again, and a server that stays down gets two attempts a second, no more.
         set(&mut c, "connect/exit_on_failure", "false".into())?;
+        set(
+            &mut c,
+            "connect/retry",
+            format!(
+                r#"{{"period_init_ms": {RETRY_FIRST_MS}, "period_max_ms": {RETRY_MAX_MS}, "period_increase_factor": 1.5}}"#
+            ),
+        )?;
         // No admin space, no timestamps we do not use.
         set(&mut c, "adminspace/enabled", "false".into())?;
         if let Some(t) = &self.tls {
@@ -226,6 +236,11 @@ impl NetConfig {
     }
 }
 
+/// A lost or missing connect endpoint is tried again after this long at first ...
+pub const RETRY_FIRST_MS: u64 = 100;
+/// ... and at most this long: the bound on reconnecting once the other end listens again.
+pub const RETRY_MAX_MS: u64 = 500;
+
 /// JSON text of a configuration value (plain strings, lists and booleans cannot fail).
 fn json<T: Serialize + ?Sized>(v: &T) -> String {
     serde_json::to_string(v).unwrap_or_default()
@@ -262,6 +277,10 @@ mod tests {
         assert_eq!(get("scouting/gossip/enabled"), "false");
         assert_eq!(get("listen/endpoints"), r#"["tcp/127.0.0.1:7447"]"#);
         assert_eq!(get("connect/endpoints"), "[]");
+        let retry: serde_json::Value =
+            serde_json::from_str(&get("connect/retry")).unwrap_or_default();
+        assert_eq!(retry["period_init_ms"], 100, "{retry}");
+        assert_eq!(retry["period_max_ms"], 500, "{retry}");
         Ok(())
     }
 

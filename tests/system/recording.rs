@@ -1,5 +1,6 @@
 //! Match logs from a live server process: a clean stop leaves a complete log whose replay
-//! reproduces every published state; `kill -9` loses at most about the last second.
+//! reproduces every published state; `kill -9` loses at most what the server accepted in
+//! the last flush interval (250 ms) before it died, and the replay says how the log ended.
 
 mod support;
 
@@ -83,7 +84,7 @@ fn a_recorded_match_replays_to_identical_states() {
 }
 
 #[test]
-fn kill_9_while_recording_loses_at_most_about_a_second() {
+fn kill_9_while_recording_loses_at_most_the_last_flush_interval() {
     let dir = temp_dir("kill9");
     let (mut server, robots, addr) = recorded_match(&dir, 30.0);
     wait_for("a few seconds of states", Duration::from_secs(60), || {
@@ -119,7 +120,22 @@ fn kill_9_while_recording_loses_at_most_about_a_second() {
         .max()
         .expect("messages");
     let lost_s = killed_at.secs_since(last);
-    assert!(lost_s < 1.5, "the log ends {lost_s:.2} s before the kill");
+    println!("the killed server's log ends {lost_s:.3} s before the kill");
+    // Messages are written in the order accepted: everything accepted before the last one
+    // is in. The window is the flush interval (250 ms); the rest of the margin is for a
+    // busy test machine (the writer thread and the kill itself).
+    assert!(lost_s < 0.6, "the log ends {lost_s:.2} s before the kill");
+    let out = std::process::Command::new(server_bin())
+        .args(["replay", "--no-log"])
+        .arg(&files[0])
+        .output()
+        .expect("replay");
+    assert!(out.status.success());
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        said.contains("stopped without closing it"),
+        "the replay says how the log ended: {said}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

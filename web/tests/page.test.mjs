@@ -151,6 +151,19 @@ async function liveChecks(browser, recordDir) {
     .then(() => check(true, "panel: every robot with rate, trust, latency, outliers and clock offset; the rejections by reason as the server counts them"))
     .catch(() => fail("the panel's robot table or rejection list does not match the server"));
 
+  // The server records a match log: the panel names its file, and no alert is up.
+  await until("the recording's line", async () => {
+    const [text, alertHidden, st] = await Promise.all([
+      page.textContent("#recording"),
+      page.$eval("#rec-alert", (e) => e.hidden),
+      getJson(url, "/api/state"),
+    ]);
+    const file = st.recording && st.recording.file && String(st.recording.file).split("/").pop();
+    return st.recording && !st.recording.stopped && alertHidden && file && text.includes(file) && text;
+  }, 5000)
+    .then((text) => check(true, `panel: "${text}"`))
+    .catch(() => fail("the panel does not say which file the match log is recorded to"));
+
   // The ball's wall bounces and inferred kicks, as the server counts them in its state.
   await until("the bounces and kicks in the panel", async () => {
     const [text, st] = await Promise.all([page.textContent("#ball-events"), getJson(url, "/api/state")]);

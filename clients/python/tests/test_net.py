@@ -132,6 +132,7 @@ class ZenohSettings(unittest.TestCase):
         self.assertIs(self.get(c, "scouting/multicast/enabled"), False)
         self.assertIs(self.get(c, "scouting/gossip/enabled"), False)
         self.assertIs(self.get(c, "adminspace/enabled"), False)
+        self.assertEqual(self.get(c, "connect/retry")["period_max_ms"], 500)
 
     def test_secured(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -49,8 +49,16 @@ fn progress_bar(label: &'static str) -> impl FnMut(usize, usize) {
 fn read(files: &[std::path::PathBuf]) -> Result<Vec<LogMessage>> {
     let log = read_logs(files)?;
     if !log.complete {
+        let ends = match (log.messages.first(), log.messages.last()) {
+            (Some(first), Some(last)) => format!(
+                "its last message is {:.1} s after its first; ",
+                last.log_time.secs_since(first.log_time)
+            ),
+            _ => String::new(),
+        };
         eprintln!(
-            "warning: log incomplete ({}); replaying the {} messages before the damage",
+            "warning: log incomplete ({}): the server writing it stopped without closing it \
+             (killed, or its disk failed); {ends}replaying the {} messages it holds",
             log.problem.as_deref().unwrap_or("no footer"),
             log.messages.len()
         );

@@ -21,13 +21,15 @@ impl TokenBucket {
         }
     }
 
-    /// Takes one token at `now` if there is one. A clock stepping back adds nothing.
+    /// Takes one token at `now` if there is one. A clock stepping back adds nothing, and
+    /// the bucket fills on from the new time (a replay moved back in time must not wait
+    /// for its clock to reach the old one before its robots may send again).
     pub fn take(&mut self, now: Stamp, rate_hz: f64, burst: f64) -> bool {
         if let Some(at) = self.at {
             let dt_s = now.secs_since(at).max(0.0);
             self.tokens = (self.tokens + dt_s * rate_hz).min(burst);
         }
-        self.at = Some(self.at.map_or(now, |a| a.max(now)));
+        self.at = Some(now);
         if self.tokens >= 1.0 {
             self.tokens -= 1.0;
             true
@@ -113,7 +115,10 @@ mod tests {
         // 0.25 s on: two and a half tokens, two whole ones.
         let t = later.offset_secs(0.25);
         assert_eq!((0..10).filter(|_| b.take(t, 10.0, 5.0)).count(), 2);
-        // A clock stepping back gives nothing.
+        // A clock stepping back gives nothing...
         assert!(!b.take(t0, 10.0, 5.0));
+        // ... and the bucket fills on from there: 0.2 s later, two tokens.
+        let back = t0.offset_secs(0.2);
+        assert_eq!((0..10).filter(|_| b.take(back, 10.0, 5.0)).count(), 2);
     }
 }

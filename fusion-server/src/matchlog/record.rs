@@ -22,8 +22,8 @@ use std::sync::Arc;
 
 use proto::Stamp;
 
-pub use handle::RecorderHandle;
-pub use recorder::McapRecorder;
+pub use handle::{RecorderHandle, RecordingHealth};
+pub use recorder::{FaultCause, McapRecorder, RETRY_INTERVAL};
 
 /// The largest payload one record may carry. Larger records are refused, so that every
 /// file stays readable by [`crate::matchlog::read`], which caps what it buffers.
@@ -78,8 +78,8 @@ pub struct RecorderConfig {
 }
 
 impl RecorderConfig {
-    /// Default flush interval.
-    pub const DEFAULT_FLUSH_INTERVAL_S: f64 = 0.5;
+    /// Default flush interval: the durability window of a killed server.
+    pub const DEFAULT_FLUSH_INTERVAL_S: f64 = 0.25;
     /// Default chunk size (uncompressed).
     pub const DEFAULT_CHUNK_SIZE_BYTES: u64 = 1 << 20;
     /// Default queue capacity of a [`RecorderHandle`].
@@ -87,7 +87,7 @@ impl RecorderConfig {
     /// Default byte bound of a [`RecorderHandle`]'s queue (64 MiB).
     pub const DEFAULT_QUEUE_MAX_BYTES: u64 = 64 << 20;
 
-    /// Logs in `dir` named `match-…`, no rotation, a flush every 0.5 s, 1 MiB zstd chunks
+    /// Logs in `dir` named `match-…`, no rotation, a flush every 0.25 s, 1 MiB zstd chunks
     /// and a queue of 65 536 records or 64 MiB of payloads, whichever is reached first.
     pub fn new(dir: impl Into<PathBuf>) -> Self {
         Self {
@@ -266,6 +266,10 @@ pub enum RecordError {
         channel_schema: String,
         record_schema: String,
     },
+    /// The recording is stopped by a failing file or disk ([`recorder::Fault`]); the
+    /// record was not written.
+    #[error("recording stopped: {}", .0.plain())]
+    Stopped(FaultCause),
     /// The payload exceeds [`MAX_PAYLOAD_BYTES`].
     #[error("payload of {bytes} bytes on {topic:?} exceeds {MAX_PAYLOAD_BYTES} bytes")]
     PayloadTooLarge { topic: String, bytes: usize },
@@ -307,7 +311,7 @@ mod tests {
     fn the_default_configuration_is_valid() {
         let cfg = RecorderConfig::new("logs");
         assert!(cfg.validate().is_ok());
-        assert_eq!(cfg.flush_interval_s, 0.5);
+        assert_eq!(cfg.flush_interval_s, 0.25);
         assert_eq!(cfg.queue_capacity, 65_536);
     }
 

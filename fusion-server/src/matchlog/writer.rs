@@ -2,7 +2,7 @@
 //! records on a background writer, with the proto JSON Schemas on every channel.
 
 use crate::matchlog::record::{
-    Record, RecordError, RecordSummary, RecorderConfig, RecorderHandle, Schema,
+    Record, RecordError, RecordSummary, RecorderConfig, RecorderHandle, RecordingHealth, Schema,
 };
 use crate::matchlog::{LogKind, MatchLog};
 use proto::Stamp;
@@ -93,6 +93,11 @@ impl MatchLog for McapLog {
     fn queued_bytes(&self) -> u64 {
         let guard = self.handle.lock().unwrap_or_else(|p| p.into_inner());
         guard.as_ref().map_or(0, |h| h.stats().queued_bytes)
+    }
+
+    fn health(&self) -> Option<RecordingHealth> {
+        let guard = self.handle.lock().unwrap_or_else(|p| p.into_inner());
+        guard.as_ref().map(|h| h.health(std::time::Instant::now()))
     }
 }
 

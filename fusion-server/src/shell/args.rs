@@ -74,6 +74,11 @@ pub struct ServeArgs {
     /// Start a new log file after this many minutes.
     #[arg(long)]
     pub record_max_min: Option<f64>,
+    /// End the log's open chunk and hand it to the operating system this often: what a
+    /// killed server (kill -9, a power cut aside) can lose is what it accepted within this
+    /// time before it died (default 250 ms).
+    #[arg(long, value_name = "MS")]
+    pub record_flush_ms: Option<f64>,
     /// Token the control endpoints (replay's pause, play, seek, speed) require as
     /// `Authorization: Bearer TOKEN`; without it only this machine may use them.
     #[arg(long, value_name = "TOKEN")]
@@ -129,6 +134,10 @@ impl ServeArgs {
         set(&mut s.record.dir, &self.record);
         set(&mut s.record.max_mb, &self.record_max_mb);
         set(&mut s.record.max_minutes, &self.record_max_min);
+        set(
+            &mut s.record.flush_interval_s,
+            &self.record_flush_ms.map(|ms| ms / 1000.0),
+        );
         let net_flags = !self.listen.is_empty()
             || !self.connect.is_empty()
             || self.mode.is_some()

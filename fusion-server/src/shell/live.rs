@@ -39,6 +39,8 @@ pub struct StateView<'a> {
     pub rejected: BTreeMap<String, u64>,
     /// Where the replay stands, when the server replays a match log.
     pub replay: Option<ReplayStatus>,
+    /// How the match log's recording stands, when the server records one.
+    pub recording: Option<crate::matchlog::record::RecordingHealth>,
 }
 
 /// The kind a scene message is logged as.
@@ -248,6 +250,7 @@ impl Live {
             observations: inner.engine.recent_observations(now, RECENT_WINDOW_S),
             rejected: inner.engine.rejected_by_reason(),
             replay: self.replay.get().map(|r| r.status()),
+            recording: self.log.as_ref().and_then(|l| l.health()),
         }
     }
 
@@ -549,6 +552,11 @@ impl Live {
             self.stats
                 .record_queue_bytes
                 .store(log.queued_bytes(), Relaxed);
+            *self
+                .stats
+                .recording
+                .lock()
+                .unwrap_or_else(|p| p.into_inner()) = log.health();
         }
         let views = self.views.counts();
         let inner = self.lock();

@@ -97,6 +97,8 @@ pub struct ShellStats {
     pub record_queue_bytes: AtomicU64,
     /// Rejected inputs left out of the match log.
     pub record_skipped_rejected: AtomicU64,
+    /// How the match log's recording stood when /metrics was last asked.
+    pub recording: Mutex<Option<crate::matchlog::record::RecordingHealth>>,
     /// Seconds from an observation's arrival to the publication of a state that includes it.
     pub obs_to_state_s: Mutex<Histogram>,
     /// This server stands by: a live server of its prefix has a smaller id and publishes
@@ -183,6 +185,8 @@ struct Snapshot {
     simple: Vec<(Family, Value)>,
     rejected: Vec<((String, String), u64)>,
     per_robot: Vec<(Family, Vec<(String, Value)>)>,
+    /// The match log's recording, when the server records one.
+    recording: Option<crate::matchlog::record::RecordingHealth>,
     active: Value,
     clock_suspect: Value,
     latency: Histogram,
@@ -223,6 +227,49 @@ impl Collector for Snapshot {
             "gauge",
             "Robots whose estimated clock offset exceeds the warning threshold.",
         );
+        if let Some(r) = &self.recording {
+            let errors = Family::new(
+                "rf_record_errors_total",
+                "counter",
+                "Writes and flushes of the match log that failed, by cause (disk_full, permission, io): each stops the recording until a new file can be written.",
+            );
+            let mut family =
+                encoder.encode_descriptor(errors.name, errors.help, None, MetricType::Counter)?;
+            for (cause, n) in &r.errors {
+                ConstCounter::new(*n).encode(family.encode_family(&[("cause", *cause)])?)?;
+            }
+            for (f, v) in [
+                (
+                    Family::new(
+                        "rf_record_stopped",
+                        "gauge",
+                        "1 while a failing file or disk keeps the match log from recording (the server serves on; recording resumes into a new file when writes succeed).",
+                    ),
+                    u64::from(r.stopped),
+                ),
+                (
+                    Family::new(
+                        "rf_record_failed_total",
+                        "counter",
+                        "Messages the match log's writer could not write: while the recording was stopped, in a failed write, or refused for themselves.",
+                    ),
+                    r.failed,
+                ),
+                (
+                    Family::new(
+                        "rf_record_resumed_total",
+                        "counter",
+                        "Times the match log resumed into a new file after it had stopped.",
+                    ),
+                    r.resumed,
+                ),
+            ] {
+                f.sample(
+                    encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?,
+                    Value::Count(v),
+                )?;
+            }
+        }
         for (f, v) in [(active, self.active), (suspect, self.clock_suspect)] {
             f.sample(
                 encoder.encode_descriptor(f.name, f.help, None, f.metric_type())?,
@@ -559,10 +606,16 @@ fn snapshot(engine: &Engine, shell: &ShellStats, now: Stamp) -> Snapshot {
             (Family::new(name, kind, help), rows)
         })
         .collect();
+    let recording = shell
+        .recording
+        .lock()
+        .map(|r| r.clone())
+        .unwrap_or_default();
     Snapshot {
         simple,
         rejected,
         per_robot,
+        recording,
         active: Value::Count(u64::from(!shell.standby.load(Relaxed))),
         clock_suspect: Value::Count(robots.iter().filter(|r| r.clock_suspect).count() as u64),
         latency: shell.latency(),

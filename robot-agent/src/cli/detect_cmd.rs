@@ -347,11 +347,10 @@ impl LabelWriter {
             }
         }
         eprintln!(
-            "wrote {} label files to {} ({} existing ones kept); {} lists the least certain \
-             photos first",
-            self.written,
+            "wrote {} to {} ({} kept); {} lists the least certain photos first",
+            crate::cli::progress::count(self.written, "label file"),
             self.dir.display(),
-            self.kept,
+            crate::cli::progress::count(self.kept, "existing one"),
             review.display()
         );
         Ok(())

@@ -124,12 +124,12 @@ pub fn evaluate_items(
             && let Some(row) = eval.last()
         {
             let line = format!(
-                "[{}/{n}] {image_name}: {} balls ({} with a candidate), {} candidates \
+                "[{}/{n}] {image_name}: {} ({} with a candidate), {} \
                  ({} on a ball, {} accepted), published {}",
                 k + 1,
-                row.balls.len(),
+                crate::cli::progress::count(row.balls.len(), "ball"),
                 row.balls_proposed.iter().filter(|&&p| p).count(),
-                row.candidates,
+                crate::cli::progress::count(row.candidates, "candidate"),
                 row.candidates_on_ball,
                 row.candidates_accepted,
                 match (row.published, row.published_on_ball) {

@@ -13,3 +13,22 @@ pub fn bar(len: usize, what: &str) -> ProgressBar {
     bar.set_style(style);
     bar
 }
+
+/// `n` and `word`, plural unless `n` is one: "1 candidate", "3 candidates".
+pub fn count(n: usize, word: &str) -> String {
+    if n == 1 {
+        format!("1 {word}")
+    } else {
+        format!("{n} {word}s")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn one_is_singular_and_the_rest_plural() {
+        assert_eq!(super::count(1, "label file"), "1 label file");
+        assert_eq!(super::count(0, "candidate"), "0 candidates");
+        assert_eq!(super::count(12, "ball"), "12 balls");
+    }
+}

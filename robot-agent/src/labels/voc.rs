@@ -133,20 +133,26 @@ pub fn parse_voc(
     Ok(labels)
 }
 
-/// Writes a VOC annotation of ball boxes (named `ball`), the inverse of [`parse_voc`].
+/// Writes a VOC annotation of ball boxes (named `ball`), the inverse of [`parse_voc`] to
+/// the pixel: whole 1-based pixel indices as VOC tools expect (LabelImg and CVAT read no
+/// fractions), each box the pixels it covers at least half of, within the image.
 pub fn write_voc(file_name: &str, width_px: u32, height_px: u32, balls: &[BallBox]) -> String {
     let mut out = format!(
         "<annotation>\n  <filename>{file_name}</filename>\n  <size><width>{width_px}</width>\
          <height>{height_px}</height><depth>3</depth></size>\n"
     );
+    // Pixel k (1-based) spans [k − 1.5, k − 0.5] in box coordinates.
+    let index = |edge: f64, size: u32| (edge.round() as i64).clamp(1, i64::from(size.max(1)));
     for b in balls {
+        let (x0, y0) = (
+            index(b.x_min_px + 1.5, width_px),
+            index(b.y_min_px + 1.5, height_px),
+        );
+        let x1 = index(b.x_max_px + 0.5, width_px).max(x0);
+        let y1 = index(b.y_max_px + 0.5, height_px).max(y0);
         out += &format!(
-            "  <object>\n    <name>ball</name>\n    <bndbox><xmin>{:.1}</xmin><ymin>{:.1}</ymin>\
-             <xmax>{:.1}</xmax><ymax>{:.1}</ymax></bndbox>\n  </object>\n",
-            b.x_min_px + 1.5,
-            b.y_min_px + 1.5,
-            b.x_max_px + 0.5,
-            b.y_max_px + 0.5
+            "  <object>\n    <name>ball</name>\n    <bndbox><xmin>{x0}</xmin><ymin>{y0}</ymin>\
+             <xmax>{x1}</xmax><ymax>{y1}</ymax></bndbox>\n  </object>\n"
         );
     }
     out + "</annotation>\n"
@@ -204,16 +210,41 @@ mod tests {
     }
 
     #[test]
-    fn round_trips_through_the_writer() {
+    fn round_trips_through_the_writer_to_the_pixel_in_whole_indices() {
         let balls = [BallBox {
             x_min_px: 10.0,
-            y_min_px: 20.5,
-            x_max_px: 30.0,
-            y_max_px: 40.5,
+            y_min_px: 20.4,
+            x_max_px: 30.2,
+            y_max_px: 40.0,
         }];
-        let l = parse(&write_voc("f.png", 64, 48, &balls)).unwrap();
-        assert_eq!(l.balls, balls);
+        let text = write_voc("f.png", 64, 48, &balls);
+        assert!(
+            text.contains("<xmin>12</xmin><ymin>22</ymin><xmax>31</xmax><ymax>41</ymax>"),
+            "{text}"
+        );
+        let l = parse(&text).unwrap();
+        let b = l.balls[0];
+        for (got, was) in [
+            (b.x_min_px, 10.0),
+            (b.y_min_px, 20.4),
+            (b.x_max_px, 30.2),
+            (b.y_max_px, 40.0),
+        ] {
+            assert!((got - was).abs() <= 0.5, "{got} against {was}");
+        }
         assert_eq!((l.width_px, l.height_px, l.others), (64, 48, 0));
+        // A box reaching past the image is cut at its edge.
+        let edge = [BallBox {
+            x_min_px: -3.0,
+            y_min_px: 40.0,
+            x_max_px: 70.0,
+            y_max_px: 60.0,
+        }];
+        let text = write_voc("f.png", 64, 48, &edge);
+        assert!(
+            text.contains("<xmin>1</xmin><ymin>42</ymin><xmax>64</xmax><ymax>48</ymax>"),
+            "{text}"
+        );
     }
 
     fn err(text: &str) -> String {

@@ -27,7 +27,10 @@ const TEAM_SIZE: usize = 4;
 
 #[derive(Debug, Clone, Parser)]
 #[command(
-    about = "The whole system on this machine: the server, simulated MiRos and the coach's page"
+    about = "The whole system on this machine: the server, simulated MiRos and the coach's page",
+    // The demo's own defaults, not the simulator's.
+    mut_arg("team_size", |a| a.help("Robots on the pitch (default 4)")),
+    mut_arg("duration_s", |a| a.help("Each match's length, seconds (default 120; then the next seed)"))
 )]
 struct DemoArgs {
     #[command(flatten)]

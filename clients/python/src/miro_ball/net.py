@@ -176,8 +176,11 @@ def zenoh_settings(endpoints: Sequence[str], tls: Optional[TlsFiles] = None, mod
         ("connect/endpoints", j(list(endpoints))),
         ("scouting/multicast/enabled", j(False)),
         ("scouting/gossip/enabled", j(False)),
-        # Keep retrying a connect endpoint that is not up yet.
+        # Keep retrying a connect endpoint that is not up yet, or gone (a server restarted):
+        # after 0.1 s, then half as long again each time up to 0.5 s, so the client is back
+        # within a second of the server listening again without hammering one that is down.
         ("connect/exit_on_failure", j(False)),
+        ("connect/retry", j({"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 1.5})),
         ("adminspace/enabled", j(False)),
     ]
     if tls is not None:

@@ -10,7 +10,31 @@ use std::time::Instant;
 
 use proto::Stamp;
 
+use super::recorder::{Fault, FaultCause};
 use super::{McapRecorder, Record, RecordError, RecordSummary, RecorderConfig};
+
+/// How the recording stands, for /metrics, the log and the coach's page.
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
+pub struct RecordingHealth {
+    /// True while a failing file or disk keeps the recording stopped.
+    pub stopped: bool,
+    /// Why, as a metric label (`disk_full`, `permission`, `io`) ...
+    pub cause: Option<&'static str>,
+    /// ... and in plain words, with the error.
+    pub reason: Option<String>,
+    /// Seconds since it stopped.
+    pub stopped_for_s: Option<f64>,
+    /// Records not written since it stopped.
+    pub lost_since_stopped: u64,
+    /// The file being written, or the one that failed while stopped.
+    pub file: Option<PathBuf>,
+    /// Failed writes and flushes of files and disks, by cause label.
+    pub errors: Vec<(&'static str, u64)>,
+    /// Records the writer refused or could not write (stopped, failed, refused).
+    pub failed: u64,
+    /// Times the recording resumed into a new file after stopping.
+    pub resumed: u64,
+}
 
 /// Counters of a running recorder.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -42,6 +66,11 @@ struct Shared {
     failed: AtomicU64,
     current_file: Mutex<Option<PathBuf>>,
     last_error: Mutex<Option<String>>,
+    /// Failed writes and flushes, by [`FaultCause::ALL`] index.
+    errors: [AtomicU64; 3],
+    resumed: AtomicU64,
+    /// The fault keeping the recording stopped, if one does.
+    fault: Mutex<Option<Fault>>,
 }
 
 impl Shared {
@@ -139,6 +168,40 @@ impl RecorderHandle {
         queued
     }
 
+    /// How the recording stands at `now`.
+    pub fn health(&self, now: Instant) -> RecordingHealth {
+        let s = &self.shared;
+        let fault = s
+            .fault
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
+        let current = s
+            .current_file
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone();
+        RecordingHealth {
+            stopped: fault.is_some(),
+            cause: fault.as_ref().map(|f| f.cause.label()),
+            reason: fault
+                .as_ref()
+                .map(|f| format!("{} ({})", f.cause.plain(), f.error)),
+            stopped_for_s: fault
+                .as_ref()
+                .map(|f| now.saturating_duration_since(f.since).as_secs_f64()),
+            lost_since_stopped: fault.as_ref().map_or(0, |f| f.lost),
+            file: fault.and_then(|f| f.file).or(current),
+            errors: FaultCause::ALL
+                .iter()
+                .zip(&s.errors)
+                .map(|(c, n)| (c.label(), n.load(Ordering::Relaxed)))
+                .collect(),
+            failed: s.failed.load(Ordering::Relaxed),
+            resumed: s.resumed.load(Ordering::Relaxed),
+        }
+    }
+
     /// The counters so far.
     pub fn stats(&self) -> RecorderStats {
         let s = &self.shared;
@@ -193,13 +256,13 @@ fn run(
     loop {
         match rx.recv_timeout(recorder.time_until_flush(Instant::now())) {
             Ok(record) => {
-                let written = recorder.write(&record);
+                let written = recorder.write_at(&record, Instant::now());
                 let bytes = record.payload.len() as u64;
                 shared.queued_bytes.fetch_sub(bytes, Ordering::Relaxed);
                 match written {
                     Ok(()) => shared.written.fetch_add(1, Ordering::Relaxed),
                     Err(e) => {
-                        shared.set_error(&e);
+                        shared.failed_with(&e);
                         shared.failed.fetch_add(1, Ordering::Relaxed)
                     }
                 };
@@ -208,8 +271,9 @@ fn run(
             Err(RecvTimeoutError::Disconnected) => break,
         }
         if let Err(e) = recorder.flush_if_due(Instant::now()) {
-            shared.set_error(&e);
+            shared.failed_with(&e);
         }
+        shared.follow_fault(&recorder);
         if file_key(&recorder) != file_seen {
             file_seen = file_key(&recorder);
             *shared
@@ -224,6 +288,56 @@ fn run(
         .lock()
         .unwrap_or_else(PoisonError::into_inner) = None;
     summary
+}
+
+impl Shared {
+    /// Keeps the error, and counts it by cause when the file or the disk failed.
+    fn failed_with(&self, e: &RecordError) {
+        if matches!(e, RecordError::Stopped(_)) {
+            return;
+        }
+        self.set_error(e);
+        if let Some(cause) = FaultCause::of(e)
+            && let Some(i) = FaultCause::ALL.iter().position(|c| *c == cause)
+        {
+            self.errors[i].fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Mirrors the recorder's fault, saying once in the log when the recording stops and
+    /// when it resumes.
+    fn follow_fault(&self, recorder: &McapRecorder) {
+        let mut kept = self.fault.lock().unwrap_or_else(PoisonError::into_inner);
+        match (kept.as_ref(), recorder.fault()) {
+            (None, Some(f)) => {
+                let file = f.file.as_ref().map_or_else(String::new, |p| {
+                    format!(" {} is closed and opens as it is;", p.display())
+                });
+                tracing::error!(
+                    "recording stopped: {} ({});{file} the server goes on serving, and recording \
+                     resumes into a new file as soon as writing succeeds again (tried every {} s)",
+                    f.cause.plain(),
+                    f.error,
+                    super::RETRY_INTERVAL.as_secs()
+                );
+            }
+            (Some(was), None) => {
+                self.resumed.fetch_add(1, Ordering::Relaxed);
+                let into = recorder
+                    .current_file()
+                    .map_or_else(String::new, |p| format!(" into {}", p.display()));
+                tracing::warn!(
+                    "recording resumed{into} after {:.0} s stopped ({}); {} messages of that time \
+                     were not recorded",
+                    was.since.elapsed().as_secs_f64(),
+                    was.cause.plain(),
+                    was.lost
+                );
+            }
+            _ => {}
+        }
+        *kept = recorder.fault().cloned();
+    }
 }
 
 #[cfg(test)]

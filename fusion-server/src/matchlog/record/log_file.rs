@@ -24,6 +24,8 @@ pub(super) struct OpenLog {
     pub(super) path: PathBuf,
     /// Bytes handed to the file so far (buffered or written).
     written_bytes: Arc<AtomicU64>,
+    /// Bytes on disk, in complete records, after the last successful flush.
+    durable_bytes: u64,
     first_log_time: Option<Stamp>,
     messages: u64,
     /// Payload and record bytes in the chunk not yet ended.
@@ -129,10 +131,12 @@ impl OpenLog {
             .map_err(mcap_error)?;
         // Put the header on disk at once: a file is readable from its creation on.
         writer.flush().map_err(mcap_error)?;
+        let durable_bytes = written_bytes.load(Ordering::Relaxed);
         Ok(Self {
             writer,
             path,
             written_bytes,
+            durable_bytes,
             first_log_time: None,
             messages: 0,
             open_chunk_bytes: 0,
@@ -224,7 +228,24 @@ impl OpenLog {
 
     pub(super) fn end_chunk(&mut self) -> Result<(), RecordError> {
         self.open_chunk_bytes = 0;
-        self.writer.flush().map_err(|e| self.mcap_error(e))
+        self.writer.flush().map_err(|e| self.mcap_error(e))?;
+        self.durable_bytes = self.written_bytes.load(Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// Closes a file whose writing failed: completed when that still succeeds, else cut
+    /// back to what the last successful flush left on disk (complete records, no summary:
+    /// read like the log of a killed server). Returns whether it was completed.
+    pub(super) fn abandon(self) -> bool {
+        let (path, keep) = (self.path.clone(), self.durable_bytes);
+        if self.finish().is_ok() {
+            return true;
+        }
+        if let Ok(file) = OpenOptions::new().write(true).open(&path) {
+            // Nothing more can be done for a file the disk refuses.
+            let _ = file.set_len(keep);
+        }
+        false
     }
 
     /// Writes the summary and footer, flushes and syncs the file.

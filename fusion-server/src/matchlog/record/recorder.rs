@@ -9,6 +9,99 @@ use proto::Stamp;
 use super::log_file::OpenLog;
 use super::{MAX_PAYLOAD_BYTES, Record, RecordError, RecordSummary, RecorderConfig};
 
+/// A stopped recording tries a new file this often (when there is something to write).
+pub const RETRY_INTERVAL: Duration = Duration::from_secs(2);
+
+/// Why a recording stopped: what the file or the disk refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FaultCause {
+    /// No space left on the device (or the quota is used up).
+    DiskFull,
+    /// Writing or creating the file was not permitted.
+    Permission,
+    /// Any other input/output error.
+    Io,
+}
+
+impl FaultCause {
+    pub const ALL: [FaultCause; 3] = [FaultCause::DiskFull, FaultCause::Permission, FaultCause::Io];
+
+    /// The cause as a metric label.
+    pub fn label(self) -> &'static str {
+        match self {
+            FaultCause::DiskFull => "disk_full",
+            FaultCause::Permission => "permission",
+            FaultCause::Io => "io",
+        }
+    }
+
+    /// The cause in plain words.
+    pub fn plain(self) -> &'static str {
+        match self {
+            FaultCause::DiskFull => "the disk is full",
+            FaultCause::Permission => "writing there is not permitted",
+            FaultCause::Io => "the disk reported an input/output error",
+        }
+    }
+
+    /// The cause of `e` when the file or the disk failed; `None` for a record refused
+    /// for itself (too large, another schema on its topic).
+    pub fn of(e: &RecordError) -> Option<FaultCause> {
+        let io = match e {
+            RecordError::Io { source, .. } => Some(source),
+            RecordError::Mcap {
+                source: mcap::McapError::Io(source),
+                ..
+            } => Some(source),
+            RecordError::Mcap { .. } => None,
+            _ => return None,
+        };
+        let raw = io.and_then(std::io::Error::raw_os_error);
+        Some(match io.map(std::io::Error::kind) {
+            Some(std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded) => {
+                FaultCause::DiskFull
+            }
+            Some(std::io::ErrorKind::FileTooLarge) => FaultCause::DiskFull,
+            Some(std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::ReadOnlyFilesystem) => {
+                FaultCause::Permission
+            }
+            // ENOSPC as errno, should the kind be lost on the way.
+            _ if raw == Some(28) => FaultCause::DiskFull,
+            _ => FaultCause::Io,
+        })
+    }
+}
+
+/// `e` and the errors under it, each once: "writing …: I/O error …: No space left on
+/// device (os error 28)".
+fn with_causes(e: &RecordError) -> String {
+    let mut text = e.to_string();
+    let mut source = std::error::Error::source(e);
+    while let Some(s) = source {
+        let more = s.to_string();
+        if !text.contains(&more) {
+            text = format!("{text}: {more}");
+        }
+        source = s.source();
+    }
+    text
+}
+
+/// A recording stopped by a failing file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fault {
+    pub cause: FaultCause,
+    /// The error that stopped it, as text.
+    pub error: String,
+    pub since: Instant,
+    /// The file that was being written (closed: completed, or cut back to its last
+    /// flush), if one was open.
+    pub file: Option<PathBuf>,
+    /// Records not written since.
+    pub lost: u64,
+    next_try: Instant,
+}
+
 /// Writes records to a sequence of MCAP files, rotating by size and log-time span.
 ///
 /// The first file is opened (and named after `start`) by [`McapRecorder::create`]; each
@@ -25,6 +118,8 @@ pub struct McapRecorder {
     /// Per-topic MCAP sequence numbers, continued across files.
     sequences: HashMap<String, u32>,
     last_flush: Instant,
+    /// Set while a failing file or disk keeps the recording stopped.
+    fault: Option<Fault>,
 }
 
 impl McapRecorder {
@@ -42,21 +137,46 @@ impl McapRecorder {
             messages: 0,
             sequences: HashMap::new(),
             last_flush: Instant::now(),
+            fault: None,
         };
         recorder.current = Some(recorder.open(start)?);
         Ok(recorder)
     }
 
-    /// Writes one record, first starting a new file when the current one is full by size
-    /// or log-time span. A record that fails is not written; after a failed rotation the
-    /// next record tries a new file.
+    /// Writes one record (see [`McapRecorder::write_at`]), now.
+    #[cfg(test)]
     pub fn write(&mut self, record: &Record) -> Result<(), RecordError> {
+        self.write_at(record, Instant::now())
+    }
+
+    /// Writes one record, first starting a new file when the current one is full by size
+    /// or log-time span. A record that fails is not written. When the file or the disk
+    /// fails ([`FaultCause::of`]) the file is closed and the recording stops: records are
+    /// refused as [`RecordError::Stopped`] until, [`RETRY_INTERVAL`] later, a record opens
+    /// a new file again and the recording resumes there.
+    pub fn write_at(&mut self, record: &Record, now: Instant) -> Result<(), RecordError> {
         if record.payload.len() > MAX_PAYLOAD_BYTES {
             return Err(RecordError::PayloadTooLarge {
                 topic: record.topic.clone(),
                 bytes: record.payload.len(),
             });
         }
+        if let Some(f) = &mut self.fault {
+            if now < f.next_try {
+                f.lost += 1;
+                return Err(RecordError::Stopped(f.cause));
+            }
+            f.next_try = now + RETRY_INTERVAL;
+        }
+        let result = self.write_unchecked(record);
+        match &result {
+            Ok(()) => self.fault = None,
+            Err(e) => self.failed(e, now),
+        }
+        result
+    }
+
+    fn write_unchecked(&mut self, record: &Record) -> Result<(), RecordError> {
         if self
             .current
             .as_ref()
@@ -76,6 +196,36 @@ impl McapRecorder {
         Ok(())
     }
 
+    /// After error `e`: when the file or the disk failed, closes the file and stops (or
+    /// stays stopped, counting the record lost).
+    fn failed(&mut self, e: &RecordError, now: Instant) {
+        let Some(cause) = FaultCause::of(e) else {
+            return;
+        };
+        if let Some(f) = &mut self.fault {
+            f.lost += 1;
+            return;
+        }
+        let file = self.current.take().map(|log| {
+            let path = log.path.clone();
+            log.abandon();
+            path
+        });
+        self.fault = Some(Fault {
+            cause,
+            error: with_causes(e),
+            since: now,
+            file,
+            lost: 1,
+            next_try: now + RETRY_INTERVAL,
+        });
+    }
+
+    /// Why the recording is stopped, while it is.
+    pub fn fault(&self) -> Option<&Fault> {
+        self.fault.as_ref()
+    }
+
     /// Flushes (see [`McapRecorder::flush`]) when a flush interval has passed since the
     /// last one. Returns whether it flushed.
     pub fn flush_if_due(&mut self, now: Instant) -> Result<bool, RecordError> {
@@ -84,7 +234,10 @@ impl McapRecorder {
         }
         // Count the attempt even when it fails, so a failing disk is not retried per record.
         self.last_flush = now;
-        self.flush()?;
+        if let Err(e) = self.flush() {
+            self.failed(&e, now);
+            return Err(e);
+        }
         Ok(true)
     }
 

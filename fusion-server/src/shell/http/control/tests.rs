@@ -5,6 +5,7 @@ use super::*;
 use crate::engine::{Engine, EngineConfig};
 use crate::matchlog::read::LogMessage;
 use crate::matchlog::record::test_support::logged_observation;
+use crate::shell::intake::{InputKind, Intake};
 use crate::shell::replay_live::{Deliver, PlayConfig, play};
 use futures_util::future::BoxFuture;
 use proto::{KeySpace, Stamp};
@@ -31,8 +32,9 @@ fn log() -> Vec<LogMessage> {
         .collect()
 }
 
-/// Hands inputs straight to the shared state, as the Zenoh subscriber would.
-struct Direct(Arc<Live>);
+/// Hands inputs to the server as the Zenoh subscriber does: observations through its
+/// intake (the robots' rate limits, the queue), views straight to the shared state.
+struct Direct(Arc<Live>, Arc<Intake>);
 
 impl Deliver for Direct {
     fn deliver<'a>(&'a mut self, m: &'a LogMessage) -> BoxFuture<'a, ()> {
@@ -40,7 +42,7 @@ impl Deliver for Direct {
             if crate::matchlog::replay::is_view(m) {
                 self.0.on_view(&m.topic, &m.data);
             } else {
-                self.0.on_observation(&m.topic, &m.data)
+                self.1.receive(InputKind::Observation, &m.topic, &m.data)
             }
         })
     }
@@ -83,7 +85,8 @@ async fn replaying(access: ControlAccess) -> Replaying {
             keys: KeySpace::default(),
             stay: true,
         };
-        let mut deliver = Direct(l.clone());
+        let intake = Intake::start(l.clone()).expect("intake");
+        let mut deliver = Direct(l.clone(), intake);
         play(
             l,
             control,
@@ -371,4 +374,76 @@ async fn a_live_server_says_it_is_not_replaying() {
     assert_eq!(code, 404, "{body}");
     let (code, body) = request(addr, "POST", "/api/replay/pause", &[], "").await;
     assert_eq!(code, 404, "{body}");
+}
+
+/// Fifty seeks at random, with pauses and speed changes between them, leave the replay
+/// serving what a straight replay of the same stretch serves: every recorded observation
+/// after the last seek is fused (none refused as over a robot's rate, whichever way the
+/// clock jumped) and the ball is where the log has it.
+#[tokio::test(flavor = "multi_thread")]
+async fn fifty_random_seeks_serve_what_a_straight_replay_does() {
+    let r = replaying(ControlAccess::LoopbackOnly).await;
+    eventually("a ball", async || ball_x(&r.live)).await;
+    let mut rng = proto::rng::Rng::new(48);
+    for _ in 0..50 {
+        let t_s = rng.range(0.0, LOG_S - 1.0);
+        let (code, s) = post(r.addr, "seek", &format!(r#"{{"t_s": {t_s}}}"#)).await;
+        assert_eq!(code, 200, "{s}");
+        if rng.chance(0.3) {
+            let speed = [0.5, 1.0, 4.0, 16.0, 64.0][rng.index(5)];
+            post(r.addr, "speed", &format!(r#"{{"speed": {speed}}}"#)).await;
+        }
+        let action = if rng.chance(0.3) { "pause" } else { "play" };
+        post(r.addr, action, "").await;
+        tokio::time::sleep(Duration::from_millis(rng.range(5.0, 60.0) as u64)).await;
+    }
+    // The stretch to compare: from 30 s, four seconds at four times real time.
+    post(r.addr, "pause", "").await;
+    post(r.addr, "speed", r#"{"speed": 4}"#).await;
+    post(r.addr, "seek", r#"{"t_s": 30}"#).await;
+    eventually("the ball at 30 s", async || {
+        ball_x(&r.live).filter(|x| (x - ball_x_m(30.0)).abs() < 0.1)
+    })
+    .await;
+    let refused_before = rate_limited(&r.live);
+    post(r.addr, "play", "").await;
+    tokio::time::sleep(Duration::from_millis(1000)).await;
+    post(r.addr, "pause", "").await;
+    let t_s = status_of(r.addr).await["t_s"].as_f64().expect("t_s");
+    assert!((33.0..=36.0).contains(&t_s), "{t_s}");
+    // Everything recorded up to the clock, less what may still be on its way.
+    let logged = (t_s * 20.0).floor() as u64 + 1;
+    let accepted = eventually("the stretch fused", async || {
+        let n = r.live.with_engine(|e| e.counters().observations_accepted);
+        (n + 2 >= logged).then_some(n)
+    })
+    .await;
+    assert!(accepted <= logged, "{accepted} of {logged}");
+    assert_eq!(
+        rate_limited(&r.live),
+        refused_before,
+        "none refused for its rate"
+    );
+    assert_eq!(refused_before, 0, "not after any of the fifty seeks either");
+    let x = ball_x(&r.live).expect("a ball");
+    assert!(
+        (x - ball_x_m(t_s)).abs() < 0.1,
+        "{x} against {}",
+        ball_x_m(t_s)
+    );
+    r.stop.send(()).ok();
+}
+
+/// Observations refused as over their robot's rate, so far.
+fn rate_limited(live: &Live) -> u64 {
+    let v: serde_json::Value = serde_json::from_str(&live.view_json()).expect("a view");
+    v["rejected"]
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter(|(k, _)| k.ends_with("rate_limited"))
+                .filter_map(|(_, n)| n.as_u64())
+                .sum()
+        })
+        .unwrap_or(0)
 }
