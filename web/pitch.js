@@ -207,12 +207,12 @@ export class PitchView {
       ctx.moveTo(px, py);
       ctx.lineTo(px + 1.5 * radius * Math.cos(r.pose.theta_rad), py - 1.5 * radius * Math.sin(r.pose.theta_rad));
       ctx.stroke();
-      ctx.fillStyle = r.online ? "#fff" : "#cfd8dc";
-      ctx.font = "12px system-ui, sans-serif";
       const name = r.online ? r.robot_id : `${r.robot_id} (offline)`;
-      ctx.fillText(name, px + radius + 2, py - radius);
       this.layout.block({ x: px - radius, y: py - radius, w: 2 * radius, h: 2 * radius });
-      this.layout.block({ x: px + radius + 2, y: py - radius - 11, w: ctx.measureText(name).width, h: 14 }, true);
+      // Named once every mark is drawn, where the name stays on the pitch and off the
+      // ball, the stop and the other names (a robot at the edge is named on its inner side).
+      this.queued.push({ kind: "robot", robot_id: r.robot_id, text: name, x: px + radius - 6, y: py - radius + 2,
+        colour: r.online ? "#fff" : "#cfd8dc" });
       out.robots[r.robot_id] = { online: r.online, colour: body, px, py, radius_px: radius };
     }
   }
@@ -365,7 +365,9 @@ export class PitchView {
     const ctx = this.ctx;
     ctx.font = LABEL_FONT;
     ctx.textBaseline = "top";
-    for (const q of this.queued) {
+    // The stop and the intercept first: the robots' names keep off them.
+    const order = [...this.queued].sort((a, b) => (a.kind === "robot") - (b.kind === "robot"));
+    for (const q of order) {
       const box = this.layout.place(q.x, q.y, ctx.measureText(q.text).width, LABEL_H_PX);
       // A dark backing keeps the text readable over ellipses and trails.
       ctx.fillStyle = "rgba(27, 94, 32, 0.6)";

@@ -6,7 +6,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 /// Where the shell reads time. Live: the system clock. Replay: a clock running through a
 /// recorded match, possibly faster than real time, paused or moved
-/// ([`crate::shell::replay_live::ReplayClock`]).
+/// ([`crate::shell::replay_control::ReplayClock`]).
 pub trait Clock: Send + Sync + Debug {
     fn now(&self) -> Stamp;
 }

@@ -210,7 +210,7 @@ fn photos_in_event_folders_become_label_files_to_correct() {
     ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("1 existing ones kept"), "{stderr}");
+    assert!(stderr.contains("1 existing one kept"), "{stderr}");
     let xml = std::fs::read_to_string(voc.join("e1/ball.xml")).unwrap();
     assert!(xml.contains("<filename>ball.png</filename>") && xml.contains("<name>ball</name>"));
     assert_eq!(

@@ -188,3 +188,195 @@ cp -r "{disk}/logs" "{ctl}/logs"
     assert!(last.messages.len() > 10);
     let _ = std::fs::remove_dir_all(&ctl);
 }
+
+/// A userspace TCP proxy between robots and the server (this kernel has no netem): it
+/// forwards each connection both ways, and on demand delays what the robots send (order
+/// kept), cuts every connection at once, or refuses all for a while (a partition).
+mod proxy {
+    use std::io::{Read, Write};
+    use std::net::{Shutdown, TcpListener, TcpStream};
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
+    use std::sync::{Arc, Mutex};
+    use std::time::{Duration, Instant};
+
+    #[derive(Default)]
+    struct State {
+        /// Refusing every connection, and cutting those that come.
+        partitioned: AtomicBool,
+        /// Most delay of the robots' bytes, ms (0: none); each chunk waits 0 to this long.
+        jitter_ms: AtomicU64,
+        streams: Mutex<Vec<TcpStream>>,
+        stop: AtomicBool,
+    }
+
+    pub struct FaultProxy {
+        pub port: u16,
+        state: Arc<State>,
+    }
+
+    impl FaultProxy {
+        /// A proxy on a free loopback port to `upstream` (a port on 127.0.0.1).
+        pub fn start(upstream: u16) -> FaultProxy {
+            let listener = TcpListener::bind("127.0.0.1:0").expect("proxy port");
+            let port = listener.local_addr().expect("address").port();
+            listener.set_nonblocking(true).expect("non-blocking");
+            let state = Arc::new(State::default());
+            let s = state.clone();
+            std::thread::spawn(move || {
+                while !s.stop.load(Relaxed) {
+                    match listener.accept() {
+                        Ok((client, _)) => {
+                            let _ = client.set_nonblocking(false);
+                            if s.partitioned.load(Relaxed) {
+                                let _ = client.shutdown(Shutdown::Both);
+                                continue;
+                            }
+                            if let Ok(server) = TcpStream::connect(("127.0.0.1", upstream)) {
+                                connect(&s, client, server);
+                            }
+                        }
+                        Err(_) => std::thread::sleep(Duration::from_millis(5)),
+                    }
+                }
+            });
+            FaultProxy { port, state }
+        }
+
+        /// Delays every chunk the robots send by 0 to `max_ms` (0: no delay).
+        pub fn jitter(&self, max_ms: u64) {
+            self.state.jitter_ms.store(max_ms, Relaxed);
+        }
+
+        /// Cuts every connection at once (both ends see a reset).
+        pub fn reset(&self) {
+            for s in self.state.streams.lock().expect("streams").drain(..) {
+                let _ = s.shutdown(Shutdown::Both);
+            }
+        }
+
+        /// Cuts every connection and refuses new ones while `on`.
+        pub fn partition(&self, on: bool) {
+            self.state.partitioned.store(on, Relaxed);
+            if on {
+                self.reset();
+            }
+        }
+    }
+
+    impl Drop for FaultProxy {
+        fn drop(&mut self) {
+            self.state.stop.store(true, Relaxed);
+            self.reset();
+        }
+    }
+
+    fn connect(s: &Arc<State>, client: TcpStream, server: TcpStream) {
+        let (Ok(c2), Ok(s2)) = (client.try_clone(), server.try_clone()) else {
+            return;
+        };
+        {
+            let mut streams = s.streams.lock().expect("streams");
+            streams.extend(client.try_clone().ok());
+            streams.extend(server.try_clone().ok());
+        }
+        let up = s.clone();
+        std::thread::spawn(move || pump(client, s2, Some(up)));
+        std::thread::spawn(move || pump(server, c2, None));
+    }
+
+    /// Copies `from` to `to` until either closes; with `jitter`, each chunk is held back
+    /// 0 to the current most delay, never overtaking the one before.
+    fn pump(mut from: TcpStream, mut to: TcpStream, jitter: Option<Arc<State>>) {
+        let mut buf = vec![0u8; 64 << 10];
+        let mut released = Instant::now();
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        loop {
+            let n = match from.read(&mut buf) {
+                Ok(0) | Err(_) => break,
+                Ok(n) => n,
+            };
+            if let Some(s) = &jitter {
+                let max_ms = s.jitter_ms.load(Relaxed);
+                if max_ms > 0 {
+                    seed ^= seed << 13;
+                    seed ^= seed >> 7;
+                    seed ^= seed << 17;
+                    let delay = Duration::from_millis(seed % (max_ms + 1));
+                    released = released.max(Instant::now() + delay);
+                    std::thread::sleep(released.saturating_duration_since(Instant::now()));
+                }
+            }
+            if to.write_all(&buf[..n]).is_err() {
+                break;
+            }
+        }
+        let _ = from.shutdown(Shutdown::Both);
+        let _ = to.shutdown(Shutdown::Both);
+    }
+}
+
+/// Seconds until the server accepts observations again after `since`.
+fn back_after(addr: &str, since: Instant) -> f64 {
+    let before = accepted(addr);
+    wait_for("observations again", Duration::from_secs(30), || {
+        (accepted(addr) > before + 5.0).then_some(())
+    });
+    since.elapsed().as_secs_f64()
+}
+
+#[test]
+fn through_jitter_resets_and_a_ten_second_partition_the_robots_keep_coming_back() {
+    let (_server, endpoint, addr) = start_server(&[]);
+    let upstream: u16 = endpoint
+        .rsplit(':')
+        .next()
+        .and_then(|p| p.parse().ok())
+        .expect("port");
+    let proxy = proxy::FaultProxy::start(upstream);
+    let _robots = robots(&format!("tcp/127.0.0.1:{}", proxy.port), 90.0);
+    wait_for(
+        "observations through the proxy",
+        Duration::from_secs(60),
+        || (accepted(&addr) > 50.0).then_some(()),
+    );
+
+    // 0 to 200 ms of delay on everything the robots send: observations still flow and are
+    // fused (a few may come too late for the fusion's window, and are counted).
+    let rate = |secs: u64| {
+        let (before, t0) = (accepted(&addr), Instant::now());
+        std::thread::sleep(Duration::from_secs(secs));
+        (accepted(&addr) - before) / t0.elapsed().as_secs_f64()
+    };
+    let clean_hz = rate(3);
+    proxy.jitter(200);
+    let jitter_hz = rate(4);
+    proxy.jitter(0);
+    println!(
+        "observations fused a second: {clean_hz:.0} clean, {jitter_hz:.0} under 100 ± 100 ms of jitter"
+    );
+    assert!(
+        jitter_hz > 0.5 * clean_hz,
+        "{jitter_hz} a second under jitter against {clean_hz} clean"
+    );
+
+    // Every link reset at once.
+    let cut = Instant::now();
+    proxy.reset();
+    let after_reset_s = back_after(&addr, cut);
+    println!("every link reset: observations again after {after_reset_s:.2} s");
+    assert!(after_reset_s < 3.0, "{after_reset_s}");
+
+    // Cut off for ten seconds, then the network heals.
+    proxy.partition(true);
+    std::thread::sleep(Duration::from_secs(10));
+    let healed = Instant::now();
+    proxy.partition(false);
+    let after_partition_s = back_after(&addr, healed);
+    println!("after a 10 s partition: observations again {after_partition_s:.2} s after it healed");
+    assert!(after_partition_s < 3.0, "{after_partition_s}");
+    let state = get_json(&addr, "/api/state");
+    assert!(
+        state["ball"].is_object(),
+        "the ball is served again: {state}"
+    );
+}

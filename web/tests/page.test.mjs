@@ -221,6 +221,15 @@ async function liveChecks(browser, recordDir) {
   check(panel.y >= field.y + field.height - 1 && field.width <= 390,
     `phone size: the panel is below the pitch (pitch ${field.width.toFixed(0)} px wide)`);
   await page.screenshot({ path: `${SHOTS}/phone.png`, fullPage: true });
+  // Every robot is named on the pitch, each name whole inside it and over no other label.
+  const canvas = await page.locator("#pitch").boundingBox();
+  const all = (await tb(page)).labels || [];
+  const named = all.filter((l) => l.kind === "robot");
+  const clipped = named.filter((l) => l.x < 0 || l.y < 0 || l.x + l.w > canvas.width + 0.5 || l.y + l.h > canvas.height + 0.5);
+  const covering = named.filter((l) => all.some((o) => o !== l && o.kind !== "robot" &&
+    l.x < o.x + o.w && o.x < l.x + l.w && l.y < o.y + o.h && o.y < l.y + l.h));
+  check(named.length > 0 && clipped.length === 0 && covering.length === 0,
+    `phone size: ${named.length} robots named, none cut at the pitch's edge (${clipped.map((l) => l.text).join(", ") || "none"}) nor over the stop or intercept label`);
   await page.setViewportSize({ width: 1280, height: 800 });
 
   // What the agent's cameras see; it stays chosen (its views' stream reconnects below too).

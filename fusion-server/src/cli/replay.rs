@@ -10,7 +10,8 @@ use crate::matchlog::replay::{
 };
 use crate::shell::args::{bind_http, serve_config, shutdown_signal};
 use crate::shell::net::NetConfig;
-use crate::shell::replay_live::{Deliver, PlayConfig, ReplayControl, play};
+use crate::shell::replay_control::ReplayControl;
+use crate::shell::replay_live::{Deliver, PlayConfig, play};
 use crate::shell::serve;
 use anyhow::{Context, Result};
 use futures_util::future::BoxFuture;

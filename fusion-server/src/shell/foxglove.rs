@@ -2,8 +2,9 @@
 //! (`foxglove.websocket.v1`) streaming the scene ([`crate::scene`]) and the raw channels
 //! (observations, statuses, ball states) as the match log holds them.
 //!
-//! The [`FoxgloveHub`] keeps the channel table and hands each message to every connected
-//! client through one bounded broadcast queue: the publisher never waits for a client. A
+//! The [`FoxgloveHub`] ([`super::foxglove_hub`]) keeps the channel table and hands each
+//! message to every connected client through one bounded broadcast queue: the publisher
+//! never waits for a client. A
 //! client that falls behind skips the oldest messages (counted); one that stops reading is
 //! dropped once a send takes longer than the stream's send timeout (counted), like the
 //! page's live stream. At most [`MAX_CLIENTS`] are served at once.
@@ -13,132 +14,29 @@
 //! message goes out as a binary frame: opcode 1, the subscription id (u32), the log time
 //! (u64 nanoseconds), the payload (little-endian).
 
-use crate::matchlog::LogKind;
-use crate::matchlog::record::Schema;
+use crate::shell::foxglove_hub::{Channel, Event, FoxgloveHub};
 use crate::shell::live::Live;
 use axum::Router;
 use axum::extract::State;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
-use base64::Engine as _;
-use proto::Stamp;
 use serde::Deserialize;
 use serde_json::json;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
+use std::sync::Arc;
 use std::sync::atomic::Ordering::Relaxed;
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use tokio::sync::broadcast::{self, error::RecvError};
+use tokio::sync::broadcast::error::RecvError;
 
 /// The WebSocket subprotocol clients ask for.
 pub const SUBPROTOCOL: &str = "foxglove.websocket.v1";
 /// Clients served at once; more are refused (HTTP 503).
 pub const MAX_CLIENTS: u64 = 32;
-/// Messages queued for all clients; a client further behind skips the oldest.
-pub const QUEUE_MESSAGES: usize = 1024;
-/// Channels at most (robots' topics are bounded by the engine's robot table already).
-const MAX_CHANNELS: usize = 1024;
 /// Subscriptions one client may hold.
 const MAX_SUBSCRIPTIONS: usize = 4096;
 /// The largest request a client may send.
 const MAX_REQUEST_BYTES: usize = 64 << 10;
-
-/// One advertised channel.
-#[derive(Debug)]
-struct Channel {
-    id: u32,
-    topic: String,
-    schema: Arc<Schema>,
-}
-
-impl Channel {
-    fn advertisement(&self) -> serde_json::Value {
-        let schema = if self.schema.encoding == "protobuf" {
-            base64::engine::general_purpose::STANDARD.encode(&self.schema.data)
-        } else {
-            String::from_utf8_lossy(&self.schema.data).into_owned()
-        };
-        json!({
-            "id": self.id,
-            "topic": self.topic,
-            "encoding": self.schema.message_encoding,
-            "schemaName": self.schema.name,
-            "schema": schema,
-            "schemaEncoding": self.schema.encoding,
-        })
-    }
-}
-
-#[derive(Debug, Clone)]
-enum Event {
-    Advertise(Arc<Channel>),
-    Message {
-        channel: u32,
-        log_time: u64,
-        payload: Arc<[u8]>,
-    },
-}
-
-/// The channels and the queue every client reads.
-#[derive(Debug)]
-pub struct FoxgloveHub {
-    schemas: HashMap<String, Arc<Schema>>,
-    channels: Mutex<BTreeMap<String, Arc<Channel>>>,
-    tx: broadcast::Sender<Event>,
-    name: String,
-}
-
-impl FoxgloveHub {
-    /// A hub for the server called `name`.
-    pub fn new(name: &str) -> Self {
-        let (tx, _) = broadcast::channel(QUEUE_MESSAGES);
-        FoxgloveHub {
-            schemas: crate::matchlog::schemas(),
-            channels: Mutex::new(BTreeMap::new()),
-            tx,
-            name: name.to_string(),
-        }
-    }
-
-    /// Whether any client is connected (nothing needs drawing for nobody).
-    pub fn watched(&self) -> bool {
-        self.tx.receiver_count() > 0
-    }
-
-    /// A message for the clients, on `topic` (advertised the first time it is seen).
-    pub fn publish(&self, kind: LogKind, topic: &str, at: Stamp, payload: &[u8]) {
-        let Some(schema) = self.schemas.get(crate::matchlog::schema_name(kind)) else {
-            return;
-        };
-        let channel = {
-            let mut channels = self.channels.lock().unwrap_or_else(|p| p.into_inner());
-            match channels.get(topic) {
-                Some(c) => c.clone(),
-                None if channels.len() >= MAX_CHANNELS => return,
-                None => {
-                    let c = Arc::new(Channel {
-                        id: channels.len() as u32 + 1,
-                        topic: topic.to_string(),
-                        schema: schema.clone(),
-                    });
-                    channels.insert(topic.to_string(), c.clone());
-                    // Sent under the lock, so a client that joins now either finds the
-                    // channel in the table or hears of it.
-                    let _ = self.tx.send(Event::Advertise(c.clone()));
-                    c
-                }
-            }
-        };
-        if self.watched() {
-            let _ = self.tx.send(Event::Message {
-                channel: channel.id,
-                log_time: at.0,
-                payload: Arc::from(payload),
-            });
-        }
-    }
-}
 
 /// The Foxglove WebSocket server's routes (any path upgrades).
 pub fn app(live: Arc<Live>) -> Router {
@@ -332,6 +230,9 @@ async fn send(live: &Live, socket: &mut WebSocket, message: Message, limit: Dura
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::matchlog::LogKind;
+    use base64::Engine as _;
+    use proto::Stamp;
 
     #[test]
     fn frames_carry_the_opcode_subscription_time_and_payload() {

@@ -7,8 +7,9 @@
 //! crashed and its link closed, or its link's lease ran out) the next one publishes from
 //! its next tick.
 
-use crate::shell::serve::Shared;
+use crate::shell::live::Live;
 use std::collections::BTreeSet;
+use std::sync::Arc;
 use zenoh::sample::SampleKind;
 
 /// Which servers are alive besides this one, and so whether this one publishes. Pure.
@@ -66,7 +67,7 @@ pub async fn watch(
     session: &zenoh::Session,
     prefix: &str,
     me: &str,
-    live: Shared,
+    live: Arc<Live>,
 ) -> anyhow::Result<zenoh::pubsub::Subscriber<()>> {
     let roster = std::sync::Mutex::new(Roster::new(me));
     let prefix_owned = prefix.to_string();

@@ -7,7 +7,7 @@
 use crate::camera_views::images::{self, ANNOTATIONS_SCHEMA, IMAGE_SCHEMA};
 use crate::camera_views::{CameraViews, StoredView, ViewLimits};
 use crate::matchlog::{LogKind, MatchLog};
-use crate::shell::foxglove::FoxgloveHub;
+use crate::shell::foxglove_hub::FoxgloveHub;
 use proto::{Camera, KeySpace, Stamp};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
@@ -138,6 +138,23 @@ impl ViewHub {
     /// Forgets the kept views (a replay moved in time).
     pub fn clear(&self) {
         self.lock().clear();
+    }
+
+    /// Replaces every kept view by `views` (key, payload) at once: a replay moved in time
+    /// shows what the cameras saw last before the new time, and a reader never finds the
+    /// views gone in between. They go to the page's stream, not to the match log.
+    pub fn replace<'a>(&self, views: impl IntoIterator<Item = (&'a str, &'a [u8])>, now: Stamp) {
+        let kept: Vec<Arc<StoredView>> = {
+            let mut v = self.lock();
+            v.clear();
+            views
+                .into_iter()
+                .filter_map(|(key, payload)| v.offer(key, payload, now).ok())
+                .collect()
+        };
+        for v in kept {
+            let _ = self.stream.send(v.json.clone());
+        }
     }
 
     pub fn counts(&self) -> ViewCounts {

@@ -135,21 +135,20 @@ pub fn parse_voc(
 
 /// Writes a VOC annotation of ball boxes (named `ball`), the inverse of [`parse_voc`] to
 /// the pixel: whole 1-based pixel indices as VOC tools expect (LabelImg and CVAT read no
-/// fractions), each box the pixels it covers at least half of, within the image.
+/// fractions), each box the pixels whose centres it holds, within the image.
 pub fn write_voc(file_name: &str, width_px: u32, height_px: u32, balls: &[BallBox]) -> String {
     let mut out = format!(
         "<annotation>\n  <filename>{file_name}</filename>\n  <size><width>{width_px}</width>\
          <height>{height_px}</height><depth>3</depth></size>\n"
     );
-    // Pixel k (1-based) spans [k − 1.5, k − 0.5] in box coordinates.
-    let index = |edge: f64, size: u32| (edge.round() as i64).clamp(1, i64::from(size.max(1)));
+    // Pixel k (1-based) has its centre at k − 1 in box coordinates: a box holds the pixels
+    // whose centres it holds, so a box read back keeps its centre.
+    let index = |k: f64, size: u32| (k as i64).clamp(1, i64::from(size.max(1)));
     for b in balls {
-        let (x0, y0) = (
-            index(b.x_min_px + 1.5, width_px),
-            index(b.y_min_px + 1.5, height_px),
-        );
-        let x1 = index(b.x_max_px + 0.5, width_px).max(x0);
-        let y1 = index(b.y_max_px + 0.5, height_px).max(y0);
+        let x0 = index(b.x_min_px.ceil() + 1.0, width_px);
+        let y0 = index(b.y_min_px.ceil() + 1.0, height_px);
+        let x1 = index(b.x_max_px.floor() + 1.0, width_px).max(x0);
+        let y1 = index(b.y_max_px.floor() + 1.0, height_px).max(y0);
         out += &format!(
             "  <object>\n    <name>ball</name>\n    <bndbox><xmin>{x0}</xmin><ymin>{y0}</ymin>\
              <xmax>{x1}</xmax><ymax>{y1}</ymax></bndbox>\n  </object>\n"
@@ -219,7 +218,7 @@ mod tests {
         }];
         let text = write_voc("f.png", 64, 48, &balls);
         assert!(
-            text.contains("<xmin>12</xmin><ymin>22</ymin><xmax>31</xmax><ymax>41</ymax>"),
+            text.contains("<xmin>11</xmin><ymin>22</ymin><xmax>31</xmax><ymax>41</ymax>"),
             "{text}"
         );
         let l = parse(&text).unwrap();
@@ -242,7 +241,7 @@ mod tests {
         }];
         let text = write_voc("f.png", 64, 48, &edge);
         assert!(
-            text.contains("<xmin>1</xmin><ymin>42</ymin><xmax>64</xmax><ymax>48</ymax>"),
+            text.contains("<xmin>1</xmin><ymin>41</ymin><xmax>64</xmax><ymax>48</ymax>"),
             "{text}"
         );
     }

@@ -9,7 +9,7 @@
 
 use super::error;
 use crate::shell::live::{ControlAccess, Live};
-use crate::shell::replay_live::{ControlError, ReplayControl};
+use crate::shell::replay_control::{ControlError, ReplayControl};
 use axum::body::Bytes;
 use axum::extract::{ConnectInfo, Path, State};
 use axum::http::{HeaderMap, StatusCode, header};
