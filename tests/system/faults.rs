@@ -156,6 +156,13 @@ cp -r "{disk}/logs" "{ctl}/logs"
         || (lost(&addr) > 0.0).then_some(()),
     );
 
+    // A try at a new file on the still full disk fails too (and leaves no file behind).
+    wait_for(
+        "a failed try at a new file",
+        Duration::from_secs(15),
+        || (labelled(&addr, r#"rf_record_errors_total{cause="disk_full"}"#) >= 2.0).then_some(()),
+    );
+
     // Room again: recording resumes into a new file within a few seconds.
     std::fs::write(ctl.join("free"), b"").expect("free the disk");
     let freed = Instant::now();
@@ -181,6 +188,10 @@ cp -r "{disk}/logs" "{ctl}/logs"
     // complete.
     let files = mcap_files(&ctl.join("logs"));
     assert!(files.len() >= 2, "{files:?}");
+    // No empty file left by a try on the full disk: every one opens.
+    for f in &files {
+        read_log(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+    }
     let first = read_log(&files[0]).expect("the file the disk cut short opens");
     assert!(first.messages.len() > 10, "{}", first.messages.len());
     let last = read_log(&files[files.len() - 1]).expect("the file after opens");

@@ -24,8 +24,10 @@ pub(super) struct OpenLog {
     pub(super) path: PathBuf,
     /// Bytes handed to the file so far (buffered or written).
     written_bytes: Arc<AtomicU64>,
-    /// Bytes on disk, in complete records, after the last successful flush.
+    /// Bytes on disk, in complete records, after the last successful flush, and the
+    /// messages among them.
     durable_bytes: u64,
+    durable_messages: u64,
     first_log_time: Option<Stamp>,
     messages: u64,
     /// Payload and record bytes in the chunk not yet ended.
@@ -92,6 +94,20 @@ impl OpenLog {
             source,
         })?;
         let (path, file) = create_unique(cfg, name_time, index)?;
+        // A file whose header the disk refused holds nothing: it does not stay behind (a
+        // stopped recording tries a new file every few seconds).
+        Self::start(cfg, index, path.clone(), file).inspect_err(|_| {
+            let _ = fs::remove_file(&path);
+        })
+    }
+
+    /// The MCAP writer on a new `file` at `path`, its header and metadata on disk.
+    fn start(
+        cfg: &RecorderConfig,
+        index: u32,
+        path: PathBuf,
+        file: File,
+    ) -> Result<Self, RecordError> {
         let written_bytes = Arc::new(AtomicU64::new(0));
         let out = CountingFile {
             out: BufWriter::new(file),
@@ -137,6 +153,7 @@ impl OpenLog {
             path,
             written_bytes,
             durable_bytes,
+            durable_messages: 0,
             first_log_time: None,
             messages: 0,
             open_chunk_bytes: 0,
@@ -230,14 +247,20 @@ impl OpenLog {
         self.open_chunk_bytes = 0;
         self.writer.flush().map_err(|e| self.mcap_error(e))?;
         self.durable_bytes = self.written_bytes.load(Ordering::Relaxed);
+        self.durable_messages = self.messages;
         Ok(())
     }
 
     /// Closes a file whose writing failed: completed when that still succeeds, else cut
     /// back to what the last successful flush left on disk (complete records, no summary:
-    /// read like the log of a killed server). Returns whether it was completed.
+    /// read like the log of a killed server), or removed when no message reached the disk.
+    /// Whether the file is still there.
     pub(super) fn abandon(self) -> bool {
         let (path, keep) = (self.path.clone(), self.durable_bytes);
+        if self.durable_messages == 0 {
+            drop(self);
+            return fs::remove_file(&path).is_err();
+        }
         if self.finish().is_ok() {
             return true;
         }
@@ -245,7 +268,7 @@ impl OpenLog {
             // Nothing more can be done for a file the disk refuses.
             let _ = file.set_len(keep);
         }
-        false
+        true
     }
 
     /// Writes the summary and footer, flushes and syncs the file.

@@ -100,6 +100,8 @@ pub struct Fault {
     /// Records not written since.
     pub lost: u64,
     next_try: Instant,
+    /// A new file is being tried: the recording resumes once a flush puts it on disk.
+    trying: bool,
 }
 
 /// Writes records to a sequence of MCAP files, rotating by size and log-time span.
@@ -161,17 +163,20 @@ impl McapRecorder {
                 bytes: record.payload.len(),
             });
         }
-        if let Some(f) = &mut self.fault {
+        if let Some(f) = &mut self.fault
+            && !f.trying
+        {
             if now < f.next_try {
                 f.lost += 1;
                 return Err(RecordError::Stopped(f.cause));
             }
+            // Try a new file: the recording resumes once a flush has put it on disk.
+            f.trying = true;
             f.next_try = now + RETRY_INTERVAL;
         }
         let result = self.write_unchecked(record);
-        match &result {
-            Ok(()) => self.fault = None,
-            Err(e) => self.failed(e, now),
+        if let Err(e) = &result {
+            self.failed(e, now);
         }
         result
     }
@@ -202,15 +207,22 @@ impl McapRecorder {
         let Some(cause) = FaultCause::of(e) else {
             return;
         };
+        let file = self.current.take().and_then(|log| {
+            let path = log.path.clone();
+            if log.abandon() {
+                Some(path)
+            } else {
+                // A file tried and refused before any message reached the disk is gone.
+                self.files.retain(|f| *f != path);
+                None
+            }
+        });
         if let Some(f) = &mut self.fault {
             f.lost += 1;
+            f.trying = false;
+            f.next_try = now + RETRY_INTERVAL;
             return;
         }
-        let file = self.current.take().map(|log| {
-            let path = log.path.clone();
-            log.abandon();
-            path
-        });
         self.fault = Some(Fault {
             cause,
             error: with_causes(e),
@@ -218,6 +230,7 @@ impl McapRecorder {
             file,
             lost: 1,
             next_try: now + RETRY_INTERVAL,
+            trying: false,
         });
     }
 
@@ -237,6 +250,14 @@ impl McapRecorder {
         if let Err(e) = self.flush() {
             self.failed(&e, now);
             return Err(e);
+        }
+        // A new file tried after a failure is on disk: the recording has resumed.
+        if self
+            .fault
+            .as_ref()
+            .is_some_and(|f| f.trying && self.current.is_some())
+        {
+            self.fault = None;
         }
         Ok(true)
     }
