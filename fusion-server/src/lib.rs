@@ -53,7 +53,6 @@ mod shell;
 pub use cli::main;
 pub use clock::{Clock, SystemClock};
 pub use engine::{AdmissionConfig, Engine, EngineConfig, MAX_ROBOTS};
-pub use estimator::calibration::{Calibration, Phase as ForecastPhase};
 pub use estimator::motion::fly;
 pub use estimator::predict::stop;
 pub use estimator::{

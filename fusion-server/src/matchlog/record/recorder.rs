@@ -155,7 +155,8 @@ impl McapRecorder {
     /// or log-time span. A record that fails is not written. When the file or the disk
     /// fails ([`FaultCause::of`]) the file is closed and the recording stops: records are
     /// refused as [`RecordError::Stopped`] until, [`RETRY_INTERVAL`] later, a record opens
-    /// a new file again and the recording resumes there.
+    /// a new file again; the recording resumes there once a flush has put it on disk
+    /// ([`McapRecorder::flush_if_due`]).
     pub fn write_at(&mut self, record: &Record, now: Instant) -> Result<(), RecordError> {
         if record.payload.len() > MAX_PAYLOAD_BYTES {
             return Err(RecordError::PayloadTooLarge {
