@@ -11,7 +11,7 @@ use anyhow::{Context, Result};
 use robot_agent::RgbImage;
 use robot_agent::labels::BallBox;
 use robot_agent::labels::eval::{LabelEval, LabelReport, SIZE_BANDS_PX, TimingMs, band_name};
-use robot_agent::{CandidateClassifier, Detector, DetectorConfig, NoClock, detect_photo};
+use robot_agent::{CandidateClassifier, Detector, NoClock, detect_photo};
 use serde::Serialize;
 use sim::Frame;
 use sim::{Background, PhotoProfile, synth_photo};
@@ -113,12 +113,11 @@ fn finish(eval: &LabelEval, ms: &[f64]) -> LabelReport {
 /// are found).
 pub fn evaluate_photos(
     cfg: &PhotoEvalConfig,
-    detector_cfg: &DetectorConfig,
+    detector: &Detector,
     classifier: &dyn CandidateClassifier,
     min_probability: f64,
     progress: &Progress,
 ) -> Result<Vec<PhotoSetResult>> {
-    let detector = Detector::new(*detector_cfg)?;
     let background_files = robot_agent::image_files(&cfg.backgrounds)?;
     let mut pictures = Vec::new();
     for p in &background_files {
@@ -156,7 +155,7 @@ pub fn evaluate_photos(
                     y_max_px: b.box_px[3],
                 })
                 .collect();
-            let (candidates, took_ms) = detect(&image, min_probability, &detector, classifier)?;
+            let (candidates, took_ms) = detect(&image, min_probability, detector, classifier)?;
             let photo_name = format!("{name} {i:05}");
             ms.push(took_ms);
             eval.add_stages(&photo_name, &balls, &candidates, took_ms);
@@ -204,7 +203,7 @@ pub fn evaluate_photos(
             name,
             &image,
             &labels.balls,
-            &detector,
+            detector,
             classifier,
         )?;
         progress.inc("real photos with balls");
@@ -219,7 +218,7 @@ pub fn evaluate_photos(
     for (p, frame) in background_files.iter().zip(&pictures) {
         let image = RgbImage::new(frame.width, frame.height, frame.rgb.clone())?;
         let name = p.file_name().and_then(|s| s.to_str()).unwrap_or_default();
-        score(&mut eval, &mut ms, name, &image, &[], &detector, classifier)?;
+        score(&mut eval, &mut ms, name, &image, &[], detector, classifier)?;
         progress.inc("real photos without a ball");
     }
     out.push(PhotoSetResult {

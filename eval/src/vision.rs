@@ -13,7 +13,7 @@ use proto::{Camera, Observation};
 use robot_agent::CameraModel;
 use robot_agent::NoClock;
 use robot_agent::RgbImage;
-use robot_agent::{Agent, DetectorPreset, FrameInput, PipelineConfig};
+use robot_agent::{Agent, DetectorKind, FrameInput, PipelineConfig};
 use sim::BallTruth;
 use sim::CameraRig;
 use sim::LensModel;
@@ -33,8 +33,8 @@ pub struct VisionConfig {
     pub camera: CameraWorldConfig,
     /// Fixed delay from capture to the fusion core: the pipeline plus the network.
     pub latency_s: f64,
-    /// The agent's detector (`Config`: the pipeline's defaults, the MiRo's colour path).
-    pub detector: DetectorPreset,
+    /// The agent's detector (the robot's default unless told otherwise).
+    pub detector: DetectorKind,
     /// A model file of `robot-agent train` in place of the shipped one.
     pub model: Option<PathBuf>,
 }
@@ -44,7 +44,7 @@ impl Default for VisionConfig {
         VisionConfig {
             camera: CameraWorldConfig::default(),
             latency_s: 0.040,
-            detector: DetectorPreset::Config,
+            detector: DetectorKind::default(),
             model: None,
         }
     }
@@ -192,16 +192,17 @@ fn judge(
 /// the default pipeline settings with the configured detector, and the shipped classifier
 /// (or the configured model's).
 pub fn shipped_agent(id: &str, run: &SimRun, cfg: &VisionConfig) -> anyhow::Result<Agent> {
-    let mut config = PipelineConfig::default();
-    let model_file = cfg.model.as_deref();
-    config.detector = cfg.detector.with_model(model_file).apply(config.detector);
+    let config = PipelineConfig::default();
+    let chosen =
+        robot_agent::choose_detector(cfg.detector, &config.detector, cfg.model.as_deref())?;
     let model = robot_agent::builtin::sim_calibration()?.model;
-    let classifier = robot_agent::load_classifier(&config.detector, model_file)?;
-    let mut agent = Agent::new(id, run.pitch.clone(), config, [model, model], classifier)?;
-    if let Some(net) = robot_agent::load_candidate_net(model_file)? {
-        agent = agent.with_candidate_net(net)?;
-    }
-    Ok(agent)
+    Ok(Agent::new(
+        id,
+        run.pitch.clone(),
+        config,
+        [model, model],
+        chosen,
+    ))
 }
 
 /// Renders every observer's cameras over the run and feeds the frames to its agent. Returns

@@ -12,18 +12,15 @@ use std::path::Path;
 
 /// The name of a vision run's generated section in the docs (`<!-- NAME:begin -->` …
 /// `<!-- NAME:end -->`): `evaluate-vision`, with `-patterned` for the patterned ball and
-/// `-two-stage` (or the preset's name) for a detector other than the pipeline's default.
-pub fn section_name(patterned: bool, detector: robot_agent::DetectorPreset) -> String {
-    use clap::ValueEnum;
+/// `-dissertation` (or the detector's name) for a detector other than the robot's default.
+pub fn section_name(patterned: bool, detector: robot_agent::DetectorKind) -> String {
     let mut name = String::from("evaluate-vision");
     if patterned {
         name.push_str("-patterned");
     }
-    if detector != robot_agent::DetectorPreset::Config
-        && let Some(v) = detector.to_possible_value()
-    {
+    if detector != robot_agent::DetectorKind::default() {
         name.push('-');
-        name.push_str(v.get_name());
+        name.push_str(detector.name());
     }
     name
 }

@@ -30,12 +30,16 @@ fn held_out_and_real_photos_clear_their_floors() {
         }
         .with_designs(&[sim::BallDesign::Plain, sim::BallDesign::Patches]),
     };
-    let detector = robot_agent::DetectorConfig::default();
-    let classifier = robot_agent::builtin::classifier(&detector).expect("shipped classifier");
+    let chosen = robot_agent::choose_detector(
+        robot_agent::DetectorKind::Dissertation,
+        &robot_agent::DetectorConfig::default(),
+        None,
+    )
+    .expect("the dissertation's detector");
     let results = evaluate_photos(
         &cfg,
-        &detector,
-        classifier.as_ref(),
+        &chosen.detector,
+        chosen.classifier.as_ref(),
         0.5,
         &Progress::hidden(0),
     )

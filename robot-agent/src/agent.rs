@@ -8,11 +8,11 @@ use crate::camera_counters::CameraCounters;
 use crate::detection::detect::{
     CandidateClassifier, DetectError, Detector, DetectorConfig, StageClock,
 };
-use crate::detection::heatnet::HeatNet;
 use crate::image::RgbImage;
 use crate::pipeline::{FrameContext, FrameResult, SharedBall, ValidationConfig, process_frame};
 use crate::projection::kinematics::camera_pose;
 use crate::projection::{ProjectionNoise, footprint};
+use crate::runtime::detector_choice::ChosenDetector;
 use proto::{
     BallState, BallStatus, Camera, CameraFootprint, HeadJoints, Observation, Pitch, PixelBall,
     Pose2, RobotStatus, StageTiming, Stamp,
@@ -59,7 +59,7 @@ pub struct Agent {
     config: PipelineConfig,
     models: [CameraModel; 2],
     detectors: [Detector; 2],
-    classifier: Box<dyn CandidateClassifier + Send + Sync>,
+    classifier: std::sync::Arc<dyn CandidateClassifier + Send + Sync>,
     seq: u64,
     shared: Option<BallState>,
     frames: u64,
@@ -88,16 +88,28 @@ fn index(camera: Camera) -> usize {
 }
 
 impl Agent {
-    /// `models` are the left and right cameras' calibrations.
+    /// `models` are the left and right cameras' calibrations; `chosen` the detector (its
+    /// settings replace `config.detector`).
     pub fn new(
         robot_id: &str,
         pitch: Pitch,
         config: PipelineConfig,
         models: [CameraModel; 2],
-        classifier: Box<dyn CandidateClassifier + Send + Sync>,
-    ) -> Result<Self, DetectError> {
-        let detector = Detector::new(config.detector)?;
-        Ok(Agent {
+        chosen: ChosenDetector,
+    ) -> Self {
+        let ChosenDetector {
+            kind,
+            config: detector_config,
+            detector,
+            classifier,
+            ..
+        } = chosen;
+        let config = PipelineConfig {
+            detector: detector_config,
+            noise: kind.circle_noise(config.noise),
+            ..config
+        };
+        Agent {
             robot_id: robot_id.to_string(),
             pitch,
             config,
@@ -110,17 +122,7 @@ impl Agent {
             rejections: BTreeMap::new(),
             cameras: Default::default(),
             last_status: None,
-        })
-    }
-
-    /// The same agent with this candidate network (a trained model's) in place of the
-    /// shipped one, used when the detector's proposer runs one.
-    pub fn with_candidate_net(self, net: HeatNet) -> Result<Self, DetectError> {
-        let detector = Detector::with_net(self.config.detector, net)?;
-        Ok(Agent {
-            detectors: [detector.clone(), detector],
-            ..self
-        })
+        }
     }
 
     pub fn robot_id(&self) -> &str {
@@ -307,9 +309,13 @@ mod tests {
             Pitch::default(),
             PipelineConfig::default(),
             [lens(), lens()],
-            Box::new(HoughOnly),
+            crate::runtime::detector_choice::ChosenDetector::with_classifier(
+                crate::runtime::detector_choice::DetectorKind::Dissertation,
+                &PipelineConfig::default().detector,
+                std::sync::Arc::new(HoughOnly),
+            )
+            .unwrap(),
         )
-        .unwrap()
     }
 
     /// A frame with an orange disc in the lower middle of the image, about the size a ball

@@ -81,11 +81,9 @@ pub use io::ros_msg;
 #[cfg(any(test, feature = "test-support"))]
 pub use io::ros_msg_fixtures;
 pub use pipeline::{FrameResult, ScoredCandidate, ValidationConfig};
+pub use runtime::detector_choice::{ChosenDetector, DetectorArgs, DetectorKind, choose_detector};
 pub use runtime::frame::{RobotState, StoredFrame};
-pub use runtime::models::{
-    ClassifierArgs, DetectorPreset, candidate_net as load_candidate_net,
-    classifier as load_classifier, detector as load_detector, load_config, load_models,
-};
+pub use runtime::models::{load_config, load_models};
 pub use runtime::ros_frames::RosTopics;
 pub use runtime::source::{FrameSource, McapSource};
 pub use runtime::timer::StageTimer;

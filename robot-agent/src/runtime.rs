@@ -13,10 +13,12 @@
 //! - [`live_ros`]: a running MiRo's ROS topics over Zenoh as a live source, and the inbox
 //!   every live source's messages go through.
 //! - [`ros1_source`]: a running MiRo's topics from its ROS 1 master, no bridge.
-//! - [`models`]: calibrations, pipeline settings and the ball classifier from files.
+//! - [`models`]: calibrations and pipeline settings from files.
+//! - [`detector_choice`]: the one place the detector and its model file are chosen.
 //! - [`timer`]: per-stage timings for the status.
 //! - `views`: the camera views' pacing and their encoder thread.
 
+pub mod detector_choice;
 pub mod frame;
 pub mod frames_io;
 pub mod live_ros;

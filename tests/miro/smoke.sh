@@ -24,7 +24,10 @@ echo "$NAME: $AGENT under ${RUNNER[*]:-no emulator}"
 record_frames "$TMP/frames"
 src="images:$TMP/frames"
 
-# Offline: the same balls as the native build.
+# Offline: the same frames and the same balls as the native build (the networks' float
+# arithmetic differs between ARM's and this machine's vector units in the last bits, so a
+# candidate right at the threshold may fall either way: at most 2 % of the observations,
+# and at least 2, may differ).
 "${RUNNER[@]}" "$AGENT" run --source "$src" --robot-id miro1 --offline > "$TMP/cross-offline.log" 2>&1 \
   || fail "the cross-built agent failed offline"
 "$NATIVE_AGENT" run --source "$src" --robot-id miro1 --offline > "$TMP/native-offline.log" 2>&1 \
@@ -32,7 +35,10 @@ src="images:$TMP/frames"
 cross="$(summary "$TMP/cross-offline.log")"
 native="$(summary "$TMP/native-offline.log")"
 [ -n "$cross" ] || fail "no summary from the cross-built agent"
-[ "$cross" = "$native" ] || fail "frames and observations differ: cross-built $cross, native $native"
+read -r cross_frames cross_obs <<< "$cross"
+read -r native_frames native_obs <<< "$native"
+[ "$cross_frames" = "$native_frames" ] || fail "frames differ: cross-built $cross, native $native"
+awk -v a="$cross_obs" -v b="$native_obs" 'BEGIN { d = a - b; if (d < 0) d = -d; t = 0.02 * b; if (t < 2) t = 2; exit !(d <= t && b > 0) }'   || fail "observations differ: cross-built $cross, native $native"
 echo "$NAME: offline, frames and observations: cross-built $cross, native $native"
 
 # Live: the frames replayed at their pace, published to a native server.

@@ -37,8 +37,8 @@ fn write_png(path: &Path, image: &RgbImage) {
 fn detect(args: &[&str]) -> Output {
     Command::new(AGENT_CLI)
         .arg("detect")
-        // Rendered MiRo frames: the MiRo's colour path.
-        .args(["--detector", "colour"])
+        // Rendered MiRo frames: the dissertation's colour path, tuned to the simulated ball.
+        .args(["--detector", "dissertation"])
         .args(args)
         .output()
         .unwrap()

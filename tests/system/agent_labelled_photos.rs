@@ -114,7 +114,7 @@ fn evaluate_and_train_on_a_labelled_folder() {
         let stdout = agent(&[
             "evaluate",
             "--detector",
-            "colour",
+            "dissertation",
             "--images",
             &p("images"),
             "--labels",
@@ -184,7 +184,7 @@ fn evaluate_and_train_on_a_labelled_folder() {
     agent(&[
         "evaluate",
         "--detector",
-        "colour",
+        "dissertation",
         "--images",
         &p("images"),
         "--labels",
@@ -203,7 +203,7 @@ fn evaluate_and_train_on_a_labelled_folder() {
     let lines = agent(&[
         "detect",
         "--detector",
-        "colour",
+        "dissertation",
         "--images",
         &p("images"),
         "--classifier",
@@ -226,7 +226,7 @@ fn evaluate_and_train_on_a_labelled_folder() {
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("broken.json") && stderr.contains("classifier"),
+        stderr.contains("broken.json") && stderr.contains("not a model"),
         "{stderr}"
     );
 }

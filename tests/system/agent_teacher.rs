@@ -112,6 +112,8 @@ fn train_on_photos_nobody_labelled_asks_the_teacher() {
     let model = dir.path().join("ours.safetensors");
     let out = agent(&[
         "train",
+        "--model",
+        "detector",
         "--images",
         photos.to_str().unwrap(),
         "--teacher-passes",
@@ -144,8 +146,13 @@ fn train_on_photos_nobody_labelled_asks_the_teacher() {
     assert!(labels.join("teacher-labels.jsonl").is_file(), "{stderr}");
     assert!(labels.join("contact-sheet.png").is_file());
     // The file is a detector the commands take.
-    let net = robot_agent::load_candidate_net(Some(&model)).unwrap();
-    assert!(net.is_some(), "not a detector file");
+    let chosen = robot_agent::choose_detector(
+        robot_agent::DetectorKind::TwoStage,
+        &robot_agent::DetectorConfig::default(),
+        Some(&model),
+    )
+    .expect("the robot's detector takes the file");
+    assert_eq!(chosen.weights, model.display().to_string());
 }
 
 #[test]
@@ -303,6 +310,8 @@ fn train_on_a_recording_lends_labels_between_frames() {
     // The rendered ball is small for the teacher's quick pass: lower thresholds.
     let out = agent(&[
         "train",
+        "--model",
+        "detector",
         "--source",
         &format!("mcap:{}", mcap.display()),
         "--frame-step",

@@ -41,7 +41,7 @@ fn the_shipped_network_finds_real_balls_it_never_saw() {
     let precision = net["precision"].as_f64().unwrap();
     assert!(precision >= 0.7, "precision {precision}");
     // The colour path at its simulator-tuned window does far worse on these photos.
-    let colour = evaluate("colour", &dir.path().join("colour.json"));
+    let colour = evaluate("dissertation", &dir.path().join("colour.json"));
     assert!(colour["found_published"].as_u64().unwrap() + 3 <= found);
     // Every event folder gets its own row.
     let text = std::fs::read_to_string(dir.path().join("net.json")).unwrap();
@@ -89,11 +89,11 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
     assert!(net.metadata()["command"].contains("--hold-out 20240222"));
     let png = std::fs::read(&plot).unwrap();
     assert_eq!(&png[1..4], b"PNG");
-    // The model is usable: `evaluate --classifier` takes it.
+    // The model is usable: `evaluate --detector net --model` takes it.
     let out = Command::new(AGENT_CLI)
-        .args(["evaluate", "--images"])
+        .args(["evaluate", "--detector", "net", "--images"])
         .arg(photos())
-        .arg("--classifier")
+        .arg("--model")
         .arg(&model)
         .output()
         .unwrap();
@@ -137,7 +137,7 @@ fn calibrate_colour_writes_a_window_evaluate_takes() {
     assert!(t.hue_lo_deg > 10.0 && t.hue_hi_deg < 90.0, "{t:?}");
     assert!(!t.contains(120.0, 0.6, 0.5), "{t:?}");
     let out = Command::new(AGENT_CLI)
-        .args(["evaluate", "--detector", "config", "--config"])
+        .args(["evaluate", "--detector", "dissertation", "--config"])
         .arg(&settings)
         .arg("--images")
         .arg(photos())
@@ -184,7 +184,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     // score, taken by `evaluate --model` (which then runs it as the two-stage detector).
     let model = dir.path().join("tiny.safetensors");
     let out = Command::new(AGENT_CLI)
-        .args(["train", "--images"])
+        .args(["train", "--model", "detector", "--images"])
         .arg(photos())
         .args([
             "--hard-negative-rounds",
@@ -220,7 +220,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
         net.metadata()
     );
     let out = Command::new(AGENT_CLI)
-        .args(["evaluate", "--images"])
+        .args(["evaluate", "--detector", "two-stage", "--images"])
         .arg(photos())
         .arg("--model")
         .arg(&model)
@@ -237,7 +237,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     let broken = dir.path().join("broken.safetensors");
     std::fs::write(&broken, &bytes[..bytes.len() / 2]).unwrap();
     let out = Command::new(AGENT_CLI)
-        .args(["evaluate", "--images"])
+        .args(["evaluate", "--detector", "two-stage", "--images"])
         .arg(photos())
         .arg("--model")
         .arg(&broken)
@@ -245,4 +245,18 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("broken.safetensors"));
+    // The two-stage file given to the robot's default detector is refused with what to do.
+    let out = Command::new(AGENT_CLI)
+        .args(["evaluate", "--images"])
+        .arg(photos())
+        .arg("--model")
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("tiny.safetensors") && stderr.contains("--detector two-stage"),
+        "{stderr}"
+    );
 }

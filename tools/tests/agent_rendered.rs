@@ -11,8 +11,8 @@ use robot_agent::StageTimer;
 use robot_agent::StoredFrame;
 use robot_agent::ros_msg_fixtures as fx;
 use robot_agent::{Detector, DetectorConfig, NoClock};
+use robot_agent::{DetectorKind, choose_detector, load_models};
 use robot_agent::{FrameSource, McapSource};
-use robot_agent::{load_classifier as classifier, load_models};
 use std::path::PathBuf;
 use tools::sim_source::{SimArgs, SimSource};
 
@@ -39,10 +39,9 @@ fn all_frames(path: PathBuf, topics: &RosTopics) -> Vec<StoredFrame> {
 fn found_at(f: &StoredFrame) -> Option<[f64; 2]> {
     let models = load_models(None, None).unwrap();
     let config = robot_agent::PipelineConfig::default();
-    let classifier = classifier(&config.detector, None).unwrap();
+    let chosen = choose_detector(DetectorKind::Dissertation, &config.detector, None).unwrap();
     let mut agent =
-        robot_agent::Agent::new("miro1", proto::Pitch::default(), config, models, classifier)
-            .unwrap();
+        robot_agent::Agent::new("miro1", proto::Pitch::default(), config, models, chosen);
     let input = robot_agent::FrameInput {
         stamp: f.stamp,
         camera: f.camera,

@@ -187,7 +187,7 @@ impl ColourFit {
         };
         format!(
             "# Fitted by robot-agent calibrate-colour: {} ball pixels ({:.1} % inside the window), \
-             {} background pixels ({:.2} % inside).\n[detector]\nproposer = \"colour\"\nclassifier = \"hog-svm\"\n\n{}\n{}",
+             {} background pixels ({:.2} % inside).\n# For the dissertation's colour pipeline: `--detector dissertation --config THIS_FILE`.\n{}\n{}",
             self.ball_pixels,
             100.0 * self.ball_inside,
             self.background_pixels,

@@ -11,10 +11,11 @@ use crate::two_colour::PatternConfig;
 use serde::{Deserialize, Serialize};
 
 /// Where the detector's candidates come from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Proposer {
     /// The seed's path: the colour window's blobs and the circular Hough transform.
+    #[default]
     Colour,
     /// Compact blobs that stand out from their surroundings, of any colour
     /// ([`crate::contrast`]).
@@ -43,12 +44,13 @@ impl Proposer {
 
 /// The detector's settings.
 /// Which classifier judges the proposals when no model file is given.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum ClassifierKind {
     /// The shipped ball network (any ball colour; refines the circle).
     Net,
     /// The shipped HOG + SVM filter with the colour check (the colour proposer's partner).
+    #[default]
     HogSvm,
     /// The shipped grey checker (any ball colour, by shape; refines the circle; the
     /// candidate network's partner).
@@ -58,10 +60,13 @@ pub enum ClassifierKind {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
-    /// Where candidates come from.
+    /// Where candidates come from: set by the detector the agent chose, never by a
+    /// settings file.
+    #[serde(skip)]
     pub proposer: Proposer,
     /// The shipped classifier that judges them (a model file given on the command line
-    /// takes its place).
+    /// takes its place): set by the detector the agent chose, never by a settings file.
+    #[serde(skip)]
     pub classifier: ClassifierKind,
     /// The appearance proposals' settings.
     pub appearance: AppearanceConfig,

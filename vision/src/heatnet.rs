@@ -123,9 +123,15 @@ impl InputGeometry {
         }
     }
 
-    /// The geometry the detector uses for a frame: at most [`INPUT_WIDTH_PX`] wide.
+    /// The geometry the network was trained at for a frame: at most [`INPUT_WIDTH_PX`]
+    /// wide.
     pub fn for_frame(width: u32, height: u32) -> Self {
-        let scale = (f64::from(INPUT_WIDTH_PX) / f64::from(width.max(1))).min(1.0);
+        Self::for_frame_at(width, height, INPUT_WIDTH_PX)
+    }
+
+    /// The geometry for a frame shrunk to at most `input_width_px` wide (never enlarged).
+    pub fn for_frame_at(width: u32, height: u32, input_width_px: u32) -> Self {
+        let scale = (f64::from(input_width_px.max(1)) / f64::from(width.max(1))).min(1.0);
         Self::with_scale(width, height, scale)
     }
 }
@@ -199,7 +205,12 @@ pub fn normalise(shrunk: &[f32], g: &InputGeometry) -> Act {
 
 /// The network's input for a frame, and the geometry it was made with.
 pub fn input(image: &RgbImage) -> (Act, InputGeometry) {
-    let g = InputGeometry::for_frame(image.width(), image.height());
+    input_at(image, INPUT_WIDTH_PX)
+}
+
+/// The network's input for a frame shrunk to at most `input_width_px` wide.
+pub fn input_at(image: &RgbImage, input_width_px: u32) -> (Act, InputGeometry) {
+    let g = InputGeometry::for_frame_at(image.width(), image.height(), input_width_px);
     (normalise(&shrink(image, &g), &g), g)
 }
 
@@ -258,6 +269,9 @@ pub struct PeakConfig {
     pub max_candidates: usize,
     /// A peak below this probability is not a candidate.
     pub min_probability: f64,
+    /// The frame is shrunk to at most this wide for the network (the network was trained
+    /// at 320 and at 0.6–1.5 times that scale; narrower is faster, and loses far balls).
+    pub input_width_px: u32,
 }
 
 impl Default for PeakConfig {
@@ -265,6 +279,7 @@ impl Default for PeakConfig {
         PeakConfig {
             max_candidates: 12,
             min_probability: 0.005,
+            input_width_px: INPUT_WIDTH_PX,
         }
     }
 }
@@ -275,6 +290,12 @@ impl PeakConfig {
             return Err(format!(
                 "min_probability {} is outside [0, 1]",
                 self.min_probability
+            ));
+        }
+        if !(64..=1280).contains(&self.input_width_px) {
+            return Err(format!(
+                "input_width_px {} is outside 64..=1280",
+                self.input_width_px
             ));
         }
         Ok(())
@@ -317,9 +338,14 @@ impl HeatNet {
         &self.metadata
     }
 
-    /// Multiply-adds for a frame of this size.
+    /// Multiply-adds for a frame of this size at the trained input width.
     pub fn multiply_adds(&self, width: u32, height: u32) -> usize {
-        let g = InputGeometry::for_frame(width, height);
+        self.multiply_adds_at(width, height, INPUT_WIDTH_PX)
+    }
+
+    /// Multiply-adds for a frame of this size shrunk to at most `input_width_px` wide.
+    pub fn multiply_adds_at(&self, width: u32, height: u32, input_width_px: u32) -> usize {
+        let g = InputGeometry::for_frame_at(width, height, input_width_px);
         let (mut h, mut w) = (g.padded_height_px, g.padded_width_px);
         let mut total = 0;
         for l in &self.layers {
@@ -353,7 +379,8 @@ impl HeatNet {
 
     /// The frame's candidates: see the module's documentation.
     pub fn candidates(&self, image: &RgbImage, cfg: &PeakConfig) -> Vec<Circle> {
-        peaks(&self.heatmap(image), cfg)
+        let (x, g) = input_at(image, cfg.input_width_px);
+        peaks(&self.forward(&x, g), cfg)
     }
 }
 

@@ -3,8 +3,8 @@
 //! JPEG and annotations, built on its own thread in the agent); and the renderer's own
 //! speed.
 //!
-//! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--detector colour|net|two-stage`, `--classifier MODEL`,
-//! `--doc FILE`.
+//! Flags: `--matches N` (default 3), `--seconds S` (default 20), `--detector
+//! two-stage|net|dissertation` (default: the robot's), `--model FILE`, `--doc FILE`.
 //!
 //! Frames are rendered first (not timed), then each goes through the agent's whole
 //! pipeline (colour mask to floor projection and validation) on this thread, with every
@@ -16,9 +16,7 @@ use proto::{Camera, Pitch, Stamp};
 use robot_agent::RgbImage;
 use robot_agent::StageClock;
 use robot_agent::{Agent, FrameInput, PipelineConfig};
-use robot_agent::{
-    ClassifierArgs, DetectorPreset, load_candidate_net, load_classifier as classifier, load_models,
-};
+use robot_agent::{DetectorArgs, DetectorKind, load_models};
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig};
@@ -32,30 +30,42 @@ use std::time::Instant;
     about = "Times the agent's perception pipeline per frame, by stage, on rendered frames"
 )]
 struct BenchArgs {
+    /// The detector timed (the robot's by default); each has its own section of the
+    /// document.
     #[command(flatten)]
-    model: ClassifierArgs,
+    detector: DetectorArgs,
     /// Simulated matches the frames come from.
     #[arg(long, default_value_t = 3)]
     matches: u64,
     /// Seconds of each match (both cameras of every robot at 5 Hz).
     #[arg(long, default_value_t = 20.0)]
     seconds: f64,
-    /// The detector timed: the MiRo's colour path, appearance proposals judged by the
-    /// colour-patch network (`net`) or the two-stage detector (`two-stage`); each has its
-    /// own section of the document.
-    #[arg(long, value_enum, default_value_t = DetectorPreset::Colour)]
-    detector: DetectorPreset,
+    /// Time the detector on real photos instead of rendered frames: the photos of these
+    /// folders (repeatable; subfolders included) scaled and cropped to a 640×360 frame, as
+    /// a camera of the MiRo's size would give them. Its section is marked with `-photos`.
+    #[arg(long, value_name = "DIR")]
+    photos: Vec<PathBuf>,
+    /// With `--photos`: at most this many photos of each folder, spread over it.
+    #[arg(long, default_value_t = 400, requires = "photos")]
+    photo_count: usize,
     /// Rewrite the generated section of this markdown file.
     #[arg(long)]
     doc: Option<PathBuf>,
 }
 
-const BEGIN: &str = "<!-- bench-vision:begin -->";
-const END: &str = "<!-- bench-vision:end -->";
-const NET_BEGIN: &str = "<!-- bench-vision-net:begin -->";
-const NET_END: &str = "<!-- bench-vision-net:end -->";
-const TWO_STAGE_BEGIN: &str = "<!-- bench-vision-two-stage:begin -->";
-const TWO_STAGE_END: &str = "<!-- bench-vision-two-stage:end -->";
+/// The document's section for a detector: `bench-vision` for the robot's, with the
+/// detector's name for another.
+fn section(kind: DetectorKind) -> (String, String) {
+    let name = if kind == DetectorKind::default() {
+        "bench-vision".to_string()
+    } else {
+        format!("bench-vision-{}", kind.name())
+    };
+    (
+        format!("<!-- {name}:begin -->"),
+        format!("<!-- {name}:end -->"),
+    )
+}
 
 /// Every stage's durations, milliseconds, in pipeline order.
 #[derive(Debug, Default)]
@@ -181,12 +191,152 @@ fn frame_rate_hz(times_s: &[f64]) -> Option<f64> {
     (last > first).then(|| (times_s.len() - 1) as f64 / (last - first))
 }
 
+/// A photo as a 640×360 frame: scaled by area averaging (or nearest pixel, when enlarged)
+/// to cover the frame, its middle kept.
+fn as_frame(photo: &RgbImage) -> Result<RgbImage> {
+    const W: u32 = 640;
+    const H: u32 = 360;
+    let (pw, ph) = (f64::from(photo.width()), f64::from(photo.height()));
+    // Source pixels per frame pixel, so the scaled photo covers the whole frame.
+    let step = (pw / f64::from(W)).min(ph / f64::from(H));
+    let x0 = (pw - step * f64::from(W)) / 2.0;
+    let y0 = (ph - step * f64::from(H)) / 2.0;
+    let data = photo.data();
+    let stride = photo.width() as usize;
+    let mut out = Vec::with_capacity((W * H * 3) as usize);
+    for y in 0..H {
+        let sy0 = (y0 + step * f64::from(y)) as usize;
+        let sy1 = ((y0 + step * f64::from(y + 1)) as usize)
+            .max(sy0 + 1)
+            .min(photo.height() as usize);
+        for x in 0..W {
+            let sx0 = (x0 + step * f64::from(x)) as usize;
+            let sx1 = ((x0 + step * f64::from(x + 1)) as usize)
+                .max(sx0 + 1)
+                .min(stride);
+            let mut acc = [0u32; 3];
+            for sy in sy0..sy1 {
+                for px in data[(sy * stride + sx0) * 3..(sy * stride + sx1) * 3].chunks_exact(3) {
+                    for k in 0..3 {
+                        acc[k] += u32::from(px[k]);
+                    }
+                }
+            }
+            let n = ((sy1 - sy0) * (sx1 - sx0)).max(1) as u32;
+            out.extend(acc.map(|a| (a / n) as u8));
+        }
+    }
+    Ok(RgbImage::new(W, H, out)?)
+}
+
+/// `--photos`: the detector's time per frame by stage on real photos made 640×360 frames
+/// (no pose, so no projection: the image half and the classifier).
+fn bench_photos(args: &BenchArgs, dirs: &[PathBuf]) -> Result<()> {
+    let config = PipelineConfig::default();
+    let chosen = args.detector.choose(&config.detector)?;
+    let mut frames = Vec::new();
+    for dir in dirs {
+        let mut files = robot_agent::image_files_recursive(dir)?;
+        files.sort();
+        anyhow::ensure!(!files.is_empty(), "{} holds no photos", dir.display());
+        let step = files.len().div_ceil(args.photo_count.max(1)).max(1);
+        for file in files.iter().step_by(step) {
+            match robot_agent::load_rgb(file) {
+                Ok(photo) => frames.push(as_frame(&photo)?),
+                Err(e) => eprintln!("{}: left out: {e}", file.display()),
+            }
+        }
+    }
+    let names: Vec<String> = dirs
+        .iter()
+        .map(|d| {
+            d.file_name().map_or_else(
+                || d.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            )
+        })
+        .collect();
+    eprintln!("{} photos as 640×360 frames", frames.len());
+    let mut stages = Stages::default();
+    let mut totals = Vec::with_capacity(frames.len());
+    let mut found = 0usize;
+    for frame in &frames {
+        let started = Instant::now();
+        let mut clock = Recorder {
+            stages: &mut stages,
+            last: started,
+        };
+        let candidates =
+            chosen
+                .detector
+                .detect(frame, None, chosen.classifier.as_ref(), &mut clock)?;
+        totals.push(started.elapsed().as_secs_f64() * 1e3);
+        found += usize::from(
+            candidates
+                .iter()
+                .any(|c| c.probability >= config.validation.min_probability),
+        );
+    }
+    let mut table = format!(
+        "Measured on one core of a 2-core machine: {} real photos of `{}` made 640×360 frames (scaled to cover the frame, its middle kept), {found} with a candidate at or above `min_probability`; no pose, so no projection.\n\n| stage | median ms | p99 ms |\n|---|---|---|\n",
+        frames.len(),
+        names.join("` and `"),
+    );
+    for stage in &stages.order {
+        let mut v = stages.ms.get(stage).cloned().unwrap_or_default();
+        v.sort_by(f64::total_cmp);
+        table += &format!(
+            "| {stage} | {:.3} | {:.3} |\n",
+            quantile(&v, 0.5),
+            quantile(&v, 0.99)
+        );
+    }
+    totals.sort_by(f64::total_cmp);
+    let (median, p99) = (quantile(&totals, 0.5), quantile(&totals, 0.99));
+    table += &format!("| **whole detector** | **{median:.3}** | **{p99:.3}** |\n\n");
+    let met = if median <= 2.0 { "met" } else { "missed" };
+    table += &format!("Target: ≤ 2 ms per frame median: {met}.\n");
+    println!("{table}");
+    if let Some(path) = &args.doc {
+        let (begin, end) = section(args.detector.kind);
+        let (begin, end) = (
+            begin.replace(":begin", "-photos:begin"),
+            end.replace(":end", "-photos:end"),
+        );
+        let folders: Vec<String> = dirs
+            .iter()
+            .map(|d| format!(" --photos {}", d.display()))
+            .collect();
+        let cmd = format!(
+            "cargo run --release -p bench --bin bench_agent --{} --photo-count {}{} --doc {}",
+            folders.concat(),
+            args.photo_count,
+            args.detector.command_line(),
+            path.display()
+        );
+        let section = format!("Produced by `{cmd}`.\n\n{table}");
+        let old = std::fs::read_to_string(path).unwrap_or_default();
+        let block = format!("{begin}\n{section}{end}");
+        let new = match (old.find(&begin), old.find(&end)) {
+            (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + end.len()..]),
+            _ => format!("{old}\n{block}\n"),
+        };
+        std::fs::write(path, new).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("updated {}", path.display());
+    }
+    Ok(())
+}
+
 fn main() -> Result<()> {
     let args = BenchArgs::parse();
+    if !args.photos.is_empty() {
+        return bench_photos(&args, &args.photos);
+    }
     let rig = CameraRig::new(LensModel::miro());
     let [left, right] = load_models(None, None)?;
-    let mut config = PipelineConfig::default();
-    config.detector = args.detector.apply(config.detector);
+    let config = PipelineConfig::default();
+    // Chosen once, as every command chooses it: the model file is read here, not per robot.
+    let chosen = args.detector.choose(&config.detector)?;
     let mut frames = Vec::new();
     let mut render_s = 0.0;
     let mut frame_rates = Vec::new();
@@ -241,11 +391,7 @@ fn main() -> Result<()> {
         let agent = match agents.get_mut(id) {
             Some(a) => a,
             None => {
-                let classifier = classifier(&config.detector, args.model.classifier.as_deref())?;
-                let mut a = Agent::new(id, Pitch::default(), config, [left, right], classifier)?;
-                if let Some(net) = load_candidate_net(args.model.classifier.as_deref())? {
-                    a = a.with_candidate_net(net)?;
-                }
+                let a = Agent::new(id, Pitch::default(), config, [left, right], chosen.clone());
                 agents.entry(id.clone()).or_insert(a)
             }
         };
@@ -304,11 +450,9 @@ fn main() -> Result<()> {
     table += &format!(
         "The camera renderer (640×360, the ball and the other robots in view, sensor noise) renders {render_fps:.0} camera frames per second on one core (target ≥ 100).\n"
     );
-    if args.detector == DetectorPreset::TwoStage {
-        let net = match load_candidate_net(args.model.classifier.as_deref())? {
-            Some(n) => n,
-            None => robot_agent::builtin::candidate_net()?,
-        };
+    if let Some(net) = chosen.detector.candidate_net()
+        && chosen.kind == DetectorKind::TwoStage
+    {
         let checker = robot_agent::builtin::checker()?;
         table += &format!(
             "\nThe candidate network does {:.1} M multiply-adds per 640×360 frame; the grey checker {:.2} M per candidate patch.\n",
@@ -331,13 +475,19 @@ fn main() -> Result<()> {
             load_ms[load_ms.len() / 2]
         );
     }
+    if let Some(net) = chosen.detector.candidate_net()
+        && chosen.kind == DetectorKind::Net
+    {
+        table += &format!(
+            "\nThe candidate network does {:.1} M multiply-adds per 640×360 frame.\n",
+            net.multiply_adds(640, 360) as f64 / 1e6,
+        );
+    }
     println!("{table}");
     if let Some(path) = &args.doc {
-        let (flag, begin, end) = match args.detector {
-            DetectorPreset::Net => (" --detector net", NET_BEGIN, NET_END),
-            DetectorPreset::TwoStage => (" --detector two-stage", TWO_STAGE_BEGIN, TWO_STAGE_END),
-            DetectorPreset::Colour | DetectorPreset::Config => ("", BEGIN, END),
-        };
+        let flag = args.detector.command_line();
+        let (begin, end) = section(args.detector.kind);
+        let (begin, end) = (begin.as_str(), end.as_str());
         let cmd = format!(
             "cargo run --release -p bench --bin bench_agent -- --matches {} --seconds {}{flag} --doc {}",
             args.matches,

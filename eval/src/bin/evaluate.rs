@@ -8,17 +8,19 @@
 
 #[path = "evaluate/labelled_cmd.rs"]
 mod labelled_cmd;
+#[path = "evaluate/sorted_cmd.rs"]
+mod sorted_cmd;
 #[path = "evaluate/teacher_cmd.rs"]
 mod teacher_cmd;
 #[path = "evaluate/tracks_cmd.rs"]
 mod tracks_cmd;
 
 use anyhow::Context;
-use clap::{Parser, ValueEnum};
+use clap::Parser;
 use eval::vision::{VisionConfig, evaluate_vision, shipped_lens_error};
 use eval::vision_report::{self, CalibrationCheck};
 use eval::{plots, report, scenarios};
-use robot_agent::DetectorPreset;
+use robot_agent::DetectorKind;
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
@@ -37,13 +39,11 @@ struct Args {
     /// generated section is marked `<!-- evaluate-vision-patterned:begin -->` / `…:end -->`.
     #[arg(long, requires = "vision")]
     patterned_ball: bool,
-    /// With `--vision`, the agent's detector (default `config`: the pipeline's defaults, the
-    /// MiRo's colour path; `two-stage`: the candidate network and the grey checker; its
-    /// generated section is then marked `<!-- evaluate-vision-two-stage:begin -->` /
-    /// `…:end -->`). With `--photos`, the detector of the photo commands (default `net`,
-    /// as `robot-agent detect` and `evaluate` run).
-    #[arg(long, value_enum)]
-    detector: Option<DetectorPreset>,
+    /// With `--vision` or `--photos`, the agent's detector (default: the robot's, as every
+    /// command runs it; another's generated section is marked with its name, as
+    /// `<!-- evaluate-vision-dissertation:begin -->` / `…:end -->`).
+    #[arg(long, value_enum, default_value_t = DetectorKind::default())]
+    detector: DetectorKind,
     /// With `--vision`: a model file of `robot-agent train` in place of the shipped one.
     #[arg(long, requires = "vision")]
     model: Option<PathBuf>,
@@ -72,6 +72,8 @@ struct Args {
     labelled: labelled_cmd::LabelledEvalArgs,
     #[command(flatten)]
     teacher: teacher_cmd::TeacherEvalArgs,
+    #[command(flatten)]
+    sorted: sorted_cmd::SortedEvalArgs,
     /// Score the detector on photos instead: randomised held-out photos on carpets, on
     /// the rendered pitch and on real backgrounds, and real photographs with and without
     /// balls. Its generated section is marked `<!-- evaluate-photos:begin -->` / `…:end -->`.
@@ -128,6 +130,14 @@ fn run(args: Args) -> anyhow::Result<()> {
             args.labelled.labelled_labels.as_deref(),
             &args.labelled.beside,
             &args.teacher,
+            args.doc.as_deref(),
+            &args.plots,
+        );
+    }
+    if args.sorted.sorted.is_some() {
+        return sorted_cmd::run(
+            &args.sorted,
+            &args.labelled.beside,
             args.doc.as_deref(),
             &args.plots,
         );
@@ -214,8 +224,8 @@ fn doc_section(
 }
 
 /// The agent's detector in the vision evaluation.
-fn vision_detector(args: &Args) -> DetectorPreset {
-    args.detector.unwrap_or(DetectorPreset::Config)
+fn vision_detector(args: &Args) -> DetectorKind {
+    args.detector
 }
 
 /// The command line that reproduces a run, for the generated sections.
@@ -227,10 +237,8 @@ fn command(args: &Args, names: &[&str], seeds: u64) -> String {
     if args.patterned_ball {
         cmd.push_str(" --patterned-ball");
     }
-    if vision_detector(args) != DetectorPreset::Config
-        && let Some(v) = vision_detector(args).to_possible_value()
-    {
-        cmd.push_str(&format!(" --detector {}", v.get_name()));
+    if vision_detector(args) != DetectorKind::default() {
+        cmd.push_str(&format!(" --detector {}", vision_detector(args).name()));
     }
     if let Some(model) = &args.model {
         cmd.push_str(&format!(" --model {}", model.display()));
@@ -315,14 +323,15 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         real_balls: "tests/data/real-balls".into(),
         profile: sim::PhotoProfile::heldout(),
     };
-    let preset = args.detector.unwrap_or(DetectorPreset::Net);
-    let detector = preset.apply(robot_agent::DetectorConfig::default());
-    let classifier = robot_agent::builtin::classifier(&detector)?;
+    let preset = args.detector;
+    let chosen =
+        robot_agent::choose_detector(preset, &robot_agent::DetectorConfig::default(), None)?;
+    let (detector, classifier) = (&chosen.detector, &chosen.classifier);
     let min_probability = robot_agent::ValidationConfig::default().min_probability;
     let progress = tools::progress::Progress::new(0, "photos scored");
     let results = photo_eval::evaluate_photos(
         &cfg,
-        &detector,
+        detector,
         classifier.as_ref(),
         min_probability,
         &progress,
@@ -341,8 +350,8 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         if args.photo_seed != 2 {
             cmd.push_str(&format!(" --photo-seed {}", args.photo_seed));
         }
-        if let Some(v) = args.detector.and_then(|d| d.to_possible_value()) {
-            cmd.push_str(&format!(" --detector {}", v.get_name()));
+        if preset != DetectorKind::default() {
+            cmd.push_str(&format!(" --detector {}", preset.name()));
         }
         cmd.push_str(&format!(
             " --doc {} --plots {}",
@@ -354,37 +363,31 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
              `{}` detector, no camera model, `min_probability` {min_probability}).\n\n{text}",
             args.photo_count,
             args.photo_seed,
-            preset
-                .to_possible_value()
-                .map_or(String::new(), |v| v.get_name().to_string()),
+            preset.name(),
         );
         // The default detector's section, or one of its own for another.
-        let (begin, end) = match preset {
-            DetectorPreset::Net => (
+        let (begin, end) = if preset == DetectorKind::default() {
+            (
                 photo_eval::SECTION_BEGIN.to_string(),
                 photo_eval::SECTION_END.to_string(),
-            ),
-            other => {
-                let name = other
-                    .to_possible_value()
-                    .map_or(String::new(), |v| v.get_name().to_string());
-                (
-                    format!("<!-- evaluate-photos-{name}:begin -->"),
-                    format!("<!-- evaluate-photos-{name}:end -->"),
-                )
-            }
+            )
+        } else {
+            let name = preset.name();
+            (
+                format!("<!-- evaluate-photos-{name}:begin -->"),
+                format!("<!-- evaluate-photos-{name}:end -->"),
+            )
         };
         report::rewrite_section_between(path, &begin, &end, &section)?;
         eprintln!("updated {}", path.display());
     }
-    let plot = match preset {
-        DetectorPreset::Net => "photos_recall_by_width.png".to_string(),
-        other => format!(
+    let plot = if preset == DetectorKind::default() {
+        "photos_recall_by_width.png".to_string()
+    } else {
+        format!(
             "photos_recall_by_width_{}.png",
-            other
-                .to_possible_value()
-                .map_or(String::new(), |v| v.get_name().replace('-', "_"))
-        ),
+            preset.name().replace('-', "_")
+        )
     };
     eprintln!(
         "wrote {}",

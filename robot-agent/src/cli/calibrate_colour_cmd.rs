@@ -60,7 +60,7 @@ pub fn run(args: CalibrateColourArgs) -> Result<()> {
             }
             std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
             println!(
-                "wrote {} (use it with --config {} --detector config)",
+                "wrote {} (use it with --config {} --detector dissertation)",
                 path.display(),
                 path.display()
             );

@@ -22,9 +22,7 @@ use std::time::{Duration, Instant};
 #[derive(Debug, clap::Args)]
 pub struct DetectArgs {
     #[command(flatten)]
-    pub model: crate::runtime::models::ClassifierArgs,
-    #[command(flatten)]
-    pub detector: crate::runtime::models::DetectorArgs,
+    pub detector: crate::runtime::detector_choice::DetectorArgs,
     /// Folder of photos (PNG or JPEG, subfolders included; other files are left alone).
     #[arg(long)]
     pub images: PathBuf,
@@ -112,7 +110,7 @@ const PROGRESS_EVERY: Duration = Duration::from_secs(2);
 /// What the detector runs with.
 struct Detection {
     detector: Detector,
-    classifier: Box<dyn CandidateClassifier + Send + Sync>,
+    classifier: std::sync::Arc<dyn CandidateClassifier + Send + Sync>,
     min_probability: f64,
 }
 
@@ -121,20 +119,12 @@ pub fn run(args: DetectArgs) -> Result<()> {
     if args.teacher {
         return run_teacher(&args);
     }
-    let mut config = crate::runtime::models::load_config(args.config.as_deref())?;
-    config.detector = args
-        .detector
-        .preset_for(args.model.classifier.as_deref())
-        .apply(config.detector);
+    let config = crate::runtime::models::load_config(args.config.as_deref())?;
+    let chosen = args.detector.choose(&config.detector)?;
+    eprintln!("{}", chosen.describe());
     let detection = Detection {
-        detector: crate::runtime::models::detector(
-            &config.detector,
-            args.model.classifier.as_deref(),
-        )?,
-        classifier: crate::runtime::models::classifier(
-            &config.detector,
-            args.model.classifier.as_deref(),
-        )?,
+        detector: chosen.detector,
+        classifier: chosen.classifier,
         min_probability: config.validation.min_probability,
     };
     let mut labels = match args.write_labels.as_slice() {

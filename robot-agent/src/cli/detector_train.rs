@@ -103,6 +103,7 @@ fn checker_samples(
     let peaks = PeakConfig {
         max_candidates: 24,
         min_probability: 0.001,
+        ..PeakConfig::default()
     };
     let mut samples = Vec::new();
     let mut counts = SampleCounts::default();

@@ -12,9 +12,7 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 pub struct EvaluateArgs {
     #[command(flatten)]
-    pub model: crate::runtime::models::ClassifierArgs,
-    #[command(flatten)]
-    pub detector: crate::runtime::models::DetectorArgs,
+    pub detector: crate::runtime::detector_choice::DetectorArgs,
     #[command(flatten)]
     pub folder: LabelledArgs,
     /// Pipeline settings (TOML: `[detector]`, `[validation]` for `min_probability`).
@@ -37,16 +35,11 @@ pub struct EvaluateArgs {
 use crate::cli::files::write_file;
 
 pub fn run(args: EvaluateArgs) -> Result<()> {
-    let mut config = crate::runtime::models::load_config(args.config.as_deref())?;
-    config.detector = args
-        .detector
-        .preset_for(args.model.classifier.as_deref())
-        .apply(config.detector);
+    let config = crate::runtime::models::load_config(args.config.as_deref())?;
+    let chosen = args.detector.choose(&config.detector)?;
+    eprintln!("{}", chosen.describe());
+    let (detector, classifier) = (chosen.detector, chosen.classifier);
     let folder = LabelledFolder::open(&args.folder)?;
-    let detector =
-        crate::runtime::models::detector(&config.detector, args.model.classifier.as_deref())?;
-    let classifier =
-        crate::runtime::models::classifier(&config.detector, args.model.classifier.as_deref())?;
     let items: Vec<_> = folder.items.iter().collect();
     let out = evaluate_items(
         &folder,

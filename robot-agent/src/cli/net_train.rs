@@ -7,7 +7,7 @@ use crate::cli::evaluate::held_out_score;
 use crate::cli::labelled::{Item, LabelledFolder};
 use crate::cli::progress::bar;
 use crate::detection::classifier::NetClassifier;
-use crate::detection::detect::{Detector, DetectorConfig, Proposer};
+use crate::detection::detect::{Detector, DetectorConfig};
 use crate::labels::eval::LabelReport;
 use crate::training::ballnet_data::{Sample, SampleConfig, SampleCounts, photo_samples};
 use crate::training::ballnet_train::{NetTrainConfig, Progress, TrainedNet, train_net};
@@ -34,6 +34,13 @@ pub fn collect_samples(
     what: &str,
 ) -> Result<(Vec<Sample>, SampleCounts)> {
     let bar = bar(items.len(), what);
+    // The candidate network's peaks, as the robot's detector proposes them: its hard
+    // negatives (ceiling lights, white robot parts) are what the network must learn.
+    let heat = crate::builtin::candidate_net().context("the shipped candidate network")?;
+    let peaks = crate::detection::heatnet::PeakConfig {
+        max_candidates: 2 * DetectorConfig::default().candidates.max_candidates,
+        ..DetectorConfig::default().candidates
+    };
     let mut samples = Vec::new();
     let mut counts = SampleCounts::default();
     let mut left_out = 0;
@@ -44,12 +51,13 @@ pub fn collect_samples(
         match loaded {
             Ok((labels, image)) => {
                 let mut rng = Rng::stream(seed, "ballnet-samples", k as u64);
-                let not_balls = folder
+                let mut extra = folder
                     .not_balls
                     .get(&item.image)
                     .map(|boxes| boxes.iter().map(box_circle).collect::<Vec<_>>())
                     .unwrap_or_default();
-                let (s, c) = photo_samples(&image, &labels.balls, &not_balls, cfg, &mut rng);
+                extra.extend(heat.candidates(&image, &peaks));
+                let (s, c) = photo_samples(&image, &labels.balls, &extra, cfg, &mut rng);
                 samples.extend(s);
                 counts += c;
             }
@@ -83,14 +91,11 @@ pub fn box_circle(b: &crate::labels::BallBox) -> crate::detection::hough::Circle
     }
 }
 
-/// The detector the network is made for: appearance proposals only, other settings as
-/// given.
+/// The detector the network is made for (`--detector net`: the candidate network's peaks
+/// and the strongest appearance proposals), other settings as given.
 pub fn net_detector(base: &DetectorConfig) -> Result<Detector> {
-    Detector::new(DetectorConfig {
-        proposer: Proposer::Appearance,
-        ..*base
-    })
-    .context("the detector's settings")
+    Detector::new(crate::runtime::detector_choice::DetectorKind::Net.apply(*base))
+        .context("the detector's settings")
 }
 
 /// What a training run made: the network and, when photos were held out, the detector's

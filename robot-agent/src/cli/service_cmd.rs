@@ -274,6 +274,11 @@ mod tests {
                 "invalid value 'best' for '--detector",
             ),
             (
+                // A detector name that no longer exists: the key, and the names there are.
+                "robot_id = \"m\"\nsource = \"zenoh:ros1\"\nconnect = [\"tcp/1.2.3.4:7447\"]\ndetector = \"config\"\n",
+                "invalid value 'config' for '--detector",
+            ),
+            (
                 "robot_id = \"m\"\nsource = \"camera\"\nconnect = [\"tcp/1.2.3.4:7447\"]\n",
                 "source \"camera\" is not",
             ),

@@ -18,11 +18,13 @@ use std::time::Instant;
 /// Which classifier to train.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ModelKind {
-    /// The two-stage detector (the default): the candidate network and the grey checker,
-    /// one `.safetensors` file that `run`, `detect` and `evaluate` take with `--model`.
+    /// The two-stage detector: the candidate network and the grey checker, one
+    /// `.safetensors` file that `run`, `detect` and `evaluate` take with `--detector
+    /// two-stage --model`.
     Detector,
-    /// The colour-patch ball network: any ball colour, refines the ball's circle
-    /// (`.safetensors`).
+    /// The colour-patch ball network that judges the robot's detector's candidates (the
+    /// default): any ball colour, refines the ball's circle (`.safetensors`, taken with
+    /// `--model`).
     Cnn,
     /// The HOG + SVM filter of the colour detector (`.json`).
     HogSvm,
@@ -30,7 +32,7 @@ pub enum ModelKind {
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct TrainArgs {
-    /// The model to train. Default: the two-stage detector from labelled photos, the
+    /// The model to train. Default: the robot's detector's ball network from photos, the
     /// HOG + SVM filter from patch folders.
     #[arg(long, value_enum)]
     pub model: Option<ModelKind>,
@@ -156,7 +158,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let kind = args.model.unwrap_or(if args.positives.is_some() {
         ModelKind::HogSvm
     } else {
-        ModelKind::Detector
+        ModelKind::Cnn
     });
     match kind {
         ModelKind::HogSvm => run_svm(args),

@@ -74,9 +74,13 @@ fn agent() -> Agent {
         Pitch::default(),
         PipelineConfig::default(),
         [miro_lens(), miro_lens()],
-        Box::new(HoughOnly),
+        crate::runtime::detector_choice::ChosenDetector::with_classifier(
+            crate::runtime::detector_choice::DetectorKind::Dissertation,
+            &PipelineConfig::default().detector,
+            std::sync::Arc::new(HoughOnly),
+        )
+        .unwrap(),
     )
-    .unwrap()
 }
 
 /// The run's summary and what it handed to the network side.

@@ -4,9 +4,8 @@
 //! liveliness).
 
 use crate::agent::Agent;
-use crate::runtime::models::{
-    ClassifierArgs, DetectorPreset, classifier, load_config, load_models,
-};
+use crate::runtime::detector_choice::DetectorArgs;
+use crate::runtime::models::{load_config, load_models};
 use crate::runtime::perceive::{FrameHook, Outbound, Summary, perceive, print_summary};
 use crate::runtime::ros_frames::RosTopics;
 use crate::runtime::source::{FrameSource, ImagesSource, McapSource, SourceSpec};
@@ -24,7 +23,7 @@ use tokio::sync::mpsc;
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
     #[command(flatten)]
-    pub model: ClassifierArgs,
+    pub detector: DetectorArgs,
     /// This robot's id (letters, digits, `_` and `-`).
     #[arg(long)]
     pub robot_id: String,
@@ -44,14 +43,9 @@ pub struct RunArgs {
     /// another shape (a crop) are refused either way.
     #[arg(long)]
     pub rescale_calibration: bool,
-    /// Pipeline settings (TOML: `[detector]`, `[noise]`, `[validation]`).
+    /// Pipeline settings (TOML: `[detector]` tuning, `[noise]`, `[validation]`).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Which detector runs: `config` as the settings say (the MiRo's colour path unless
-    /// `--config` names another), or a preset in their place; a two-stage detector's file
-    /// given with `--model` runs as `two-stage`.
-    #[arg(long = "detector", value_enum, default_value_t = DetectorPreset::Config)]
-    pub detector: DetectorPreset,
     /// Zenoh endpoints to connect to (the server, or a router).
     #[arg(long)]
     pub connect: Vec<String>,
@@ -168,14 +162,10 @@ pub async fn run(args: RunArgs, source: Source, hook: Option<FrameHook>) -> Resu
         args.calibration.as_deref(),
         args.calibration_right.as_deref(),
     )?;
-    let mut config = load_config(args.config.as_deref())?;
-    let model = args.model.classifier.as_deref();
-    config.detector = args.detector.with_model(model).apply(config.detector);
-    let classifier = classifier(&config.detector, model)?;
-    let mut agent = Agent::new(&args.robot_id, Pitch::default(), config, models, classifier)?;
-    if let Some(net) = crate::runtime::models::candidate_net(model)? {
-        agent = agent.with_candidate_net(net)?;
-    }
+    let config = load_config(args.config.as_deref())?;
+    let chosen = args.detector.choose(&config.detector)?;
+    tracing::info!("{}: {}", args.robot_id, chosen.describe());
+    let agent = Agent::new(&args.robot_id, Pitch::default(), config, models, chosen);
     let stop = Arc::new(AtomicBool::new(false));
     let net = NetConfig {
         mode: args.mode.clone(),

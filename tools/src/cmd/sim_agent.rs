@@ -5,7 +5,7 @@
 //!
 //! Flags (those of `robot-agent run`, and the simulated match's):
 //! - `--robot-id ID` (required), `--source sim` (the only source, the default),
-//!   `--classifier MODEL.json`, `--calibration FILE`, `--calibration-right FILE`,
+//!   `--detector NAME`, `--model FILE`, `--calibration FILE`, `--calibration-right FILE`,
 //!   `--rescale-calibration`, `--config FILE`;
 //! - Zenoh: `--connect ENDPOINT…`, `--listen ENDPOINT…`, `--mode peer|client|router`,
 //!   `--prefix PREFIX` (default `rf`);

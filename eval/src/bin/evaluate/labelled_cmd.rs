@@ -7,7 +7,7 @@
 use anyhow::{Context, Result};
 use eval::photo_eval::{stage_table_head, stage_table_note, stage_table_row};
 use eval::report;
-use robot_agent::DetectorPreset;
+use robot_agent::DetectorKind;
 use robot_agent::cli::evaluate::{EvaluateOptions, evaluate_items};
 use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
 use robot_agent::labels::eval::LabelReport;
@@ -30,79 +30,91 @@ pub struct LabelledEvalArgs {
     /// training (repeatable); those rows are marked and summed apart.
     #[arg(long = "hold-out", requires = "labelled")]
     pub hold_out: Vec<String>,
-    /// With `--labelled`: a trained model scored beside the shipped detectors, as
-    /// `NAME=FILE` (a ball network judging the appearance proposals, or a two-stage
-    /// detector file; repeatable). With `--teacher`, `shipped` scores the photo commands'
-    /// default beside the teacher.
-    #[arg(long = "beside", value_name = "NAME=FILE", requires = "labelled")]
+    /// With `--labelled` or `--sorted`: a trained model scored beside the shipped detectors,
+    /// as `NAME=FILE` (a model of the robot's detector, `net`: a ball network) or
+    /// `NAME=DETECTOR:FILE` (one of another detector, as `mine=two-stage:d.safetensors`);
+    /// repeatable. With
+    /// `--teacher`, `shipped` scores the robot's detector beside the teacher.
+    #[arg(long = "beside", value_name = "NAME=FILE")]
     pub beside: Vec<String>,
 }
 
-/// A detector to score: its row name, its settings, and the model file in place of the
-/// shipped one.
+/// A detector to score: its row name, which detector, and the model file in place of its
+/// shipped weights.
 pub struct Scored {
     pub name: String,
-    pub preset: DetectorPreset,
+    pub kind: DetectorKind,
     pub file: Option<PathBuf>,
 }
 
 impl Scored {
-    /// Its detector and classifier.
+    /// Its detector and classifier, chosen as every command chooses them.
     pub fn load(
         &self,
     ) -> Result<(
         Detector,
-        Box<dyn robot_agent::CandidateClassifier + Send + Sync>,
+        std::sync::Arc<dyn robot_agent::CandidateClassifier + Send + Sync>,
     )> {
-        let config = self.preset.apply(DetectorConfig::default());
-        let file = self.file.as_deref();
-        let context = || format!("--beside {}", self.name);
-        Ok((
-            robot_agent::load_detector(&config, file).with_context(context)?,
-            robot_agent::load_classifier(&config, file).with_context(context)?,
-        ))
+        let chosen = robot_agent::choose_detector(
+            self.kind,
+            &DetectorConfig::default(),
+            self.file.as_deref(),
+        )
+        .with_context(|| format!("--beside {}", self.name))?;
+        Ok((chosen.detector, chosen.classifier))
     }
 }
 
-/// `--beside`'s models: `shipped` (the photo commands' default), or `NAME=FILE` run as its
-/// file asks (a two-stage detector's file as the two-stage detector, a ball network on the
-/// appearance proposals).
+/// `--beside`'s models: `shipped` (the robot's detector), `NAME=FILE` (a model file of the
+/// robot's detector) or `NAME=DETECTOR:FILE` (a model file of another detector, as
+/// `student=net:student.safetensors`).
 pub fn beside_models(beside: &[String]) -> Result<Vec<Scored>> {
     beside
         .iter()
         .map(|m| match m.split_once('=') {
-            Some((name, file)) => {
-                let file = PathBuf::from(file);
+            Some((name, spec)) => {
+                let (kind, file) = match spec.split_once(':') {
+                    Some((kind, file)) => (
+                        <DetectorKind as clap::ValueEnum>::from_str(kind, false).map_err(|_| {
+                            anyhow::anyhow!(
+                                "--beside {m}: {kind:?} is not a detector (two-stage, net or \
+                                 dissertation)"
+                            )
+                        })?,
+                        file,
+                    ),
+                    None => (DetectorKind::default(), spec),
+                };
                 Ok(Scored {
                     name: name.to_string(),
-                    preset: DetectorPreset::Net.with_model(Some(&file)),
-                    file: Some(file),
+                    kind,
+                    file: Some(PathBuf::from(file)),
                 })
             }
             None if m == "shipped" => Ok(Scored {
                 name: "shipped".to_string(),
-                preset: DetectorPreset::Net,
+                kind: DetectorKind::default(),
                 file: None,
             }),
-            None => anyhow::bail!("--beside {m}: give `shipped` or NAME=FILE"),
+            None => anyhow::bail!("--beside {m}: give `shipped`, NAME=FILE or NAME=DETECTOR:FILE"),
         })
         .collect()
 }
 
 /// The shipped detectors, then `--beside NAME=FILE`'s.
-fn scored(args: &LabelledEvalArgs) -> Result<Vec<Scored>> {
+pub fn detectors(beside: &[String]) -> Result<Vec<Scored>> {
     let shipped = [
-        (DetectorPreset::Net, "net"),
-        (DetectorPreset::TwoStage, "two-stage"),
-        (DetectorPreset::Colour, "colour"),
+        DetectorKind::Net,
+        DetectorKind::TwoStage,
+        DetectorKind::Dissertation,
     ]
     .into_iter()
-    .map(|(preset, name)| Scored {
-        name: name.to_string(),
-        preset,
+    .map(|kind| Scored {
+        name: kind.name().to_string(),
+        kind,
         file: None,
     });
-    let trained = beside_models(&args.beside)?
+    let trained = beside_models(beside)?
         .into_iter()
         .filter(|s| s.file.is_some());
     Ok(shipped.chain(trained).collect())
@@ -173,7 +185,7 @@ pub fn run(args: &LabelledEvalArgs, doc: Option<&Path>) -> Result<()> {
     ];
     let mut stage_lines = Vec::new();
     let min_probability = robot_agent::ValidationConfig::default().min_probability;
-    for scored in scored(args)? {
+    for scored in detectors(&args.beside)? {
         let name = scored.name.as_str();
         let (detector, classifier) = scored.load()?;
         let score = |items: &[&Item], what: &str| {

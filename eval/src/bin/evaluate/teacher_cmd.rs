@@ -38,7 +38,7 @@ pub struct TeacherEvalArgs {
 struct Robot {
     name: String,
     detector: robot_agent::Detector,
-    classifier: Box<dyn robot_agent::CandidateClassifier + Send + Sync>,
+    classifier: std::sync::Arc<dyn robot_agent::CandidateClassifier + Send + Sync>,
 }
 
 /// The robot's detectors of `--beside`, scored box by box beside the teacher (every
