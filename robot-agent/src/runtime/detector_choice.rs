@@ -364,6 +364,28 @@ mod tests {
     }
 
     #[test]
+    fn learned_detectors_state_the_circle_noise_they_have() {
+        let base = ProjectionNoise::default();
+        // The colour pipeline's Hough circles keep the settings' noise.
+        assert_eq!(DetectorKind::Dissertation.circle_noise(base), base);
+        for kind in [DetectorKind::Net, DetectorKind::TwoStage] {
+            let n = kind.circle_noise(base);
+            assert!(n.centre_sigma_px > base.centre_sigma_px, "{n:?}");
+            assert!(
+                n.radius_sigma_per_radius > base.radius_sigma_per_radius,
+                "{n:?}"
+            );
+            assert_eq!(n.max_range_m, base.max_range_m);
+            // A setting already larger is kept.
+            let wide = ProjectionNoise {
+                centre_sigma_px: 9.0,
+                ..base
+            };
+            assert_eq!(kind.circle_noise(wide).centre_sigma_px, 9.0);
+        }
+    }
+
+    #[test]
     fn a_file_of_another_kind_is_refused_with_what_to_do() {
         let dir = tempfile::tempdir().unwrap();
         let detector = write(dir.path(), "d.safetensors", crate::builtin::DETECTOR);
