@@ -315,13 +315,8 @@ fn bench_photos(args: &BenchArgs, dirs: &[PathBuf]) -> Result<()> {
             path.display()
         );
         let section = format!("Produced by `{cmd}`.\n\n{table}");
-        let old = std::fs::read_to_string(path).unwrap_or_default();
-        let block = format!("{begin}\n{section}{end}");
-        let new = match (old.find(&begin), old.find(&end)) {
-            (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + end.len()..]),
-            _ => format!("{old}\n{block}\n"),
-        };
-        std::fs::write(path, new).with_context(|| format!("writing {}", path.display()))?;
+        eval::report::rewrite_section_between(path, &begin, &end, &section)
+            .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("updated {}", path.display());
     }
     Ok(())
@@ -495,13 +490,8 @@ fn main() -> Result<()> {
             path.display()
         );
         let section = format!("Produced by `{cmd}`.\n\n{table}");
-        let old = std::fs::read_to_string(path).unwrap_or_default();
-        let block = format!("{begin}\n{section}{end}");
-        let new = match (old.find(begin), old.find(end)) {
-            (Some(a), Some(b)) if b > a => format!("{}{block}{}", &old[..a], &old[b + end.len()..]),
-            _ => format!("{old}\n{block}\n"),
-        };
-        std::fs::write(path, new).with_context(|| format!("writing {}", path.display()))?;
+        eval::report::rewrite_section_between(path, begin, end, &section)
+            .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("updated {}", path.display());
     }
     Ok(())
