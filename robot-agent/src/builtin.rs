@@ -80,9 +80,15 @@ pub fn classifier(
 /// The shipped HOG + SVM filter, checking colours against the detector's widest window (and
 /// its patch colour, when patterned balls are looked for) with the detector's colour check.
 pub fn svm_classifier(detector: &DetectorConfig) -> Result<BallClassifier, SvmError> {
+    Ok(hog_svm_classifier(classifier_model()?, detector))
+}
+
+/// A HOG + SVM filter `model` (the shipped one or a trained one), checking colours against
+/// the detector's widest window (and its patch colour, when patterned balls are looked
+/// for) with the detector's colour check.
+pub fn hog_svm_classifier(model: Model, detector: &DetectorConfig) -> BallClassifier {
     let patches = detector.pattern.enabled.then_some(detector.pattern.white);
-    Ok(BallClassifier::new(classifier_model()?, detector.limits)
-        .with_colour_check(detector.colour_check, patches))
+    BallClassifier::new(model, detector.limits).with_colour_check(detector.colour_check, patches)
 }
 
 #[cfg(test)]

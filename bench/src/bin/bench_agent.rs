@@ -54,12 +54,12 @@ struct BenchArgs {
 }
 
 /// The document's section for a detector: `bench-vision` for the robot's, with the
-/// detector's name for another.
-fn section(kind: DetectorKind) -> (String, String) {
+/// detector's name for another, then `suffix` (`-photos` for real photos, or none).
+fn section(kind: DetectorKind, suffix: &str) -> (String, String) {
     let name = if kind == DetectorKind::default() {
-        "bench-vision".to_string()
+        format!("bench-vision{suffix}")
     } else {
-        format!("bench-vision-{}", kind.name())
+        format!("bench-vision-{}{suffix}", kind.name())
     };
     (
         format!("<!-- {name}:begin -->"),
@@ -298,11 +298,7 @@ fn bench_photos(args: &BenchArgs, dirs: &[PathBuf]) -> Result<()> {
     table += &format!("Target: ≤ 2 ms per frame median: {met}.\n");
     println!("{table}");
     if let Some(path) = &args.doc {
-        let (begin, end) = section(args.detector.kind);
-        let (begin, end) = (
-            begin.replace(":begin", "-photos:begin"),
-            end.replace(":end", "-photos:end"),
-        );
+        let (begin, end) = section(args.detector.kind, "-photos");
         let folders: Vec<String> = dirs
             .iter()
             .map(|d| format!(" --photos {}", d.display()))
@@ -481,8 +477,7 @@ fn main() -> Result<()> {
     println!("{table}");
     if let Some(path) = &args.doc {
         let flag = args.detector.command_line();
-        let (begin, end) = section(args.detector.kind);
-        let (begin, end) = (begin.as_str(), end.as_str());
+        let (begin, end) = section(args.detector.kind, "");
         let cmd = format!(
             "cargo run --release -p bench --bin bench_agent -- --matches {} --seconds {}{flag} --doc {}",
             args.matches,
@@ -490,7 +485,7 @@ fn main() -> Result<()> {
             path.display()
         );
         let section = format!("Produced by `{cmd}`.\n\n{table}");
-        eval::report::rewrite_section_between(path, begin, end, &section)
+        eval::report::rewrite_section_between(path, &begin, &end, &section)
             .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("updated {}", path.display());
     }

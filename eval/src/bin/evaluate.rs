@@ -223,11 +223,6 @@ fn doc_section(
     s
 }
 
-/// The agent's detector in the vision evaluation.
-fn vision_detector(args: &Args) -> DetectorKind {
-    args.detector
-}
-
 /// The command line that reproduces a run, for the generated sections.
 fn command(args: &Args, names: &[&str], seeds: u64) -> String {
     let mut cmd = String::from("cargo run --release -p eval --bin evaluate --");
@@ -237,8 +232,8 @@ fn command(args: &Args, names: &[&str], seeds: u64) -> String {
     if args.patterned_ball {
         cmd.push_str(" --patterned-ball");
     }
-    if vision_detector(args) != DetectorKind::default() {
-        cmd.push_str(&format!(" --detector {}", vision_detector(args).name()));
+    if args.detector != DetectorKind::default() {
+        cmd.push_str(&format!(" --detector {}", args.detector.name()));
     }
     if let Some(model) = &args.model {
         cmd.push_str(&format!(" --model {}", model.display()));
@@ -262,7 +257,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     if args.patterned_ball {
         vcfg.camera.ball_look = sim::patterned_ball();
     }
-    vcfg.detector = vision_detector(args);
+    vcfg.detector = args.detector;
     vcfg.model = args.model.clone();
     let started = std::time::Instant::now();
     let results = evaluate_vision(&names, seeds, &sim::SimConfig::default(), &vcfg, args.jobs)?;
@@ -292,7 +287,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
             args.jobs,
             vcfg.latency_s * 1e3,
         );
-        let marker = vision_report::section_name(args.patterned_ball, vision_detector(args));
+        let marker = vision_report::section_name(args.patterned_ball, args.detector);
         let (begin, end) = (
             format!("<!-- {marker}:begin -->"),
             format!("<!-- {marker}:end -->"),
@@ -302,7 +297,7 @@ fn run_vision(args: &Args) -> anyhow::Result<()> {
     }
     let plot = format!(
         "{}.png",
-        vision_report::section_name(args.patterned_ball, vision_detector(args))
+        vision_report::section_name(args.patterned_ball, args.detector)
             .replace("evaluate-vision", "vision_recall_by_radius")
             .replace('-', "_")
     );

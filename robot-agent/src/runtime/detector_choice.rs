@@ -7,7 +7,7 @@
 
 use crate::detection::ballnet::BallNet;
 use crate::detection::checker::Checker;
-use crate::detection::classifier::{BallClassifier, NetClassifier};
+use crate::detection::classifier::NetClassifier;
 use crate::detection::detect::{
     CandidateClassifier, ClassifierKind, Detector, DetectorConfig, Proposer,
 };
@@ -269,12 +269,6 @@ fn load_model(path: &Path) -> Result<LoadedModel> {
     }
 }
 
-/// The HOG + SVM filter with the detector's widest colour window for its colour check.
-fn hog_svm(model: Model, config: &DetectorConfig) -> BallClassifier {
-    let patches = config.pattern.enabled.then_some(config.pattern.white);
-    BallClassifier::new(model, config.limits).with_colour_check(config.colour_check, patches)
-}
-
 /// The detector `kind`, tuned by `settings`, with the weights of `model` (a file of
 /// `robot-agent train`) in place of the shipped ones. The file is read once; one of another
 /// kind than the detector takes is refused with a sentence naming the file and the
@@ -316,7 +310,7 @@ pub fn choose_detector(
             ),
             Some(LoadedModel::HogSvm(model)) => (
                 Detector::new(config).with_context(bad_settings)?,
-                Arc::new(hog_svm(model, &config)),
+                Arc::new(crate::builtin::hog_svm_classifier(model, &config)),
             ),
             None => (
                 Detector::new(config).with_context(bad_settings)?,

@@ -99,7 +99,7 @@ mod tests {
         let config = load_config(Some(&path)).unwrap();
         assert_eq!(config.detector.net_appearance_candidates, 2);
         assert_eq!(config.detector.candidates.input_width_px, 256);
-        // A syntax error still names its line.
+        // A syntax error still names its file.
         std::fs::write(&path, "[detector\n").unwrap();
         let e = format!("{:#}", load_config(Some(&path)).unwrap_err());
         assert!(e.contains("tuned.toml"), "{e}");
