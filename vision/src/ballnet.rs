@@ -8,12 +8,9 @@
 //! proposal's in units of the proposal's radius, and the log of its radius over the
 //! proposal's. About 0.17 M multiply-adds a patch.
 //!
-//! The forward pass is written here for these tiny channel counts rather than run through
-//! a general tensor runtime, whose per-operation overhead dominates on tensors this small:
-//! activations are row-major with the channels innermost, weights are stored
-//! `[ky][kx][in][out]` so that the innermost loop runs over contiguous output channels.
-//! The training crate's forward pass is checked against this one in the training module's
-//! tests.
+//! The forward pass is the detector's own ([`crate::nn`]): a frame's proposals are judged
+//! as one batch, each layer one matrix product over every patch. The training crate's
+//! forward pass is checked against this one in the training module's tests.
 //!
 //! Weights are a safetensors file in the training crate's layout (convolutions
 //! `[out, in, ky, kx]`, dense layers `[out, in]`, the first dense layer's inputs in
@@ -22,7 +19,7 @@
 
 use crate::hough::Circle;
 use crate::image::RgbImage;
-use crate::nn::{WeightsError, WeightsFile};
+use crate::nn::{Act, Conv, WeightsError, WeightsFile};
 use crate::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};
 use std::collections::BTreeMap;
 
@@ -49,23 +46,6 @@ pub const FLAT: usize = LAST_SIDE * LAST_SIDE * CONVOLUTIONS[2].1;
 
 /// Why a weights file cannot be used (the detector's networks share the reasons).
 pub type BallNetError = WeightsError;
-
-/// One 3×3 stride-2 convolution, weights `[ky][kx][in][out]`.
-#[derive(Debug, Clone, PartialEq)]
-struct Conv {
-    cin: usize,
-    cout: usize,
-    weights: Vec<f32>,
-    bias: Vec<f32>,
-}
-
-/// One dense layer, weights `[in][out]`.
-#[derive(Debug, Clone, PartialEq)]
-struct Dense {
-    cout: usize,
-    weights: Vec<f32>,
-    bias: Vec<f32>,
-}
 
 /// What the network says of one patch.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -101,12 +81,25 @@ impl Verdict {
     }
 }
 
+/// A batch's verdicts from the output layer's four values per image (the ball network's
+/// and the grey checker's heads say the same things).
+pub fn verdicts(out: &Act) -> Vec<Verdict> {
+    out.data
+        .chunks_exact(OUTPUTS)
+        .map(|v| Verdict {
+            logit: v[0],
+            offset: [v[1], v[2]],
+            log_scale: v[3],
+        })
+        .collect()
+}
+
 /// The network, ready to run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BallNet {
     convs: Vec<Conv>,
-    hidden: Dense,
-    output: Dense,
+    hidden: Conv,
+    output: Conv,
     /// The file's metadata (training data, held-out score, ...).
     metadata: BTreeMap<String, String>,
 }
@@ -140,116 +133,19 @@ pub fn patch_for(image: &RgbImage, circle: &Circle) -> Option<RgbPatch> {
     extract_rgb(image, circle.center_px, circle.radius_px, &cfg).ok()
 }
 
-fn conv_s2(input: &[f32], side: usize, layer: &Conv, out: &mut Vec<f32>) {
-    let (cin, cout) = (layer.cin, layer.cout);
-    let os = side / 2;
-    out.clear();
-    out.resize(os * os * cout, 0.0);
-    for oy in 0..os {
-        for ox in 0..os {
-            let acc = &mut out[(oy * os + ox) * cout..][..cout];
-            acc.copy_from_slice(&layer.bias);
-            for ky in 0..3 {
-                let Some(iy) = (2 * oy + ky).checked_sub(1).filter(|&y| y < side) else {
-                    continue;
-                };
-                for kx in 0..3 {
-                    let Some(ix) = (2 * ox + kx).checked_sub(1).filter(|&x| x < side) else {
-                        continue;
-                    };
-                    let px = &input[(iy * side + ix) * cin..][..cin];
-                    let wk = &layer.weights[(ky * 3 + kx) * cin * cout..][..cin * cout];
-                    for (&v, row) in px.iter().zip(wk.chunks_exact(cout)) {
-                        for (a, &w) in acc.iter_mut().zip(row) {
-                            *a += v * w;
-                        }
-                    }
-                }
-            }
-            for a in acc.iter_mut() {
-                *a = a.max(0.0);
-            }
-        }
-    }
-}
-
-fn dense(input: &[f32], layer: &Dense, relu: bool, out: &mut Vec<f32>) {
-    out.clear();
-    out.extend_from_slice(&layer.bias);
-    for (&v, row) in input.iter().zip(layer.weights.chunks_exact(layer.cout)) {
-        if v == 0.0 {
-            continue;
-        }
-        for (a, &w) in out.iter_mut().zip(row) {
-            *a += v * w;
-        }
-    }
-    if relu {
-        for a in out.iter_mut() {
-            *a = a.max(0.0);
-        }
-    }
-}
-
 impl BallNet {
     /// The network of a weights file's bytes.
     pub fn from_safetensors(bytes: &[u8]) -> Result<Self, BallNetError> {
         let file = WeightsFile::read(bytes, FORMAT)?;
-        let tensor = |name: &str, shape: &[usize]| file.tensor(name, shape);
-        let mut convs = Vec::new();
-        for (k, &(cin, cout)) in CONVOLUTIONS.iter().enumerate() {
-            let name = format!("conv{}", k + 1);
-            let w = tensor(&format!("{name}.weight"), &[cout, cin, 3, 3])?;
-            let bias = tensor(&format!("{name}.bias"), &[cout])?;
-            // [out][in][ky][kx] to [ky][kx][in][out].
-            let mut weights = vec![0f32; w.len()];
-            for o in 0..cout {
-                for i in 0..cin {
-                    for ky in 0..3 {
-                        for kx in 0..3 {
-                            weights[((ky * 3 + kx) * cin + i) * cout + o] =
-                                w[((o * cin + i) * 3 + ky) * 3 + kx];
-                        }
-                    }
-                }
-            }
-            convs.push(Conv {
-                cin,
-                cout,
-                weights,
-                bias,
-            });
-        }
-        let channels = CONVOLUTIONS[2].1;
-        let cells = LAST_SIDE * LAST_SIDE;
-        let w = tensor("fc1.weight", &[HIDDEN, FLAT])?;
-        let mut weights = vec![0f32; w.len()];
-        for o in 0..HIDDEN {
-            for c in 0..channels {
-                for cell in 0..cells {
-                    // The training crate flattens channel-major; the forward pass here is
-                    // cell-major with the channels innermost.
-                    weights[(cell * channels + c) * HIDDEN + o] = w[o * FLAT + c * cells + cell];
-                }
-            }
-        }
-        let hidden = Dense {
-            cout: HIDDEN,
-            weights,
-            bias: tensor("fc1.bias", &[HIDDEN])?,
-        };
-        let w = tensor("fc2.weight", &[OUTPUTS, HIDDEN])?;
-        let mut weights = vec![0f32; w.len()];
-        for o in 0..OUTPUTS {
-            for i in 0..HIDDEN {
-                weights[i * OUTPUTS + o] = w[o * HIDDEN + i];
-            }
-        }
-        let output = Dense {
-            cout: OUTPUTS,
-            weights,
-            bias: tensor("fc2.bias", &[OUTPUTS])?,
-        };
+        let convs = CONVOLUTIONS
+            .iter()
+            .enumerate()
+            .map(|(k, &(cin, cout))| file.conv(&format!("conv{}", k + 1), cin, cout, 3, 2, 1))
+            .collect::<Result<Vec<_>, _>>()?;
+        // The training crate flattens the last convolution channel-major; the forward pass
+        // here reads it cell-major with the channels innermost.
+        let hidden = file.dense("fc1", CONVOLUTIONS[2].1, LAST_SIDE * LAST_SIDE, HIDDEN)?;
+        let output = file.dense("fc2", HIDDEN, 1, OUTPUTS)?;
         Ok(BallNet {
             convs,
             hidden,
@@ -265,27 +161,55 @@ impl BallNet {
 
     /// The network's outputs for an input from [`input`].
     pub fn forward(&self, input: &[f32]) -> Verdict {
-        let mut a = input.to_vec();
-        let mut b = Vec::new();
-        let mut side = PATCH_SIDE_PX;
-        for conv in &self.convs {
-            conv_s2(&a, side, conv, &mut b);
-            std::mem::swap(&mut a, &mut b);
-            side /= 2;
+        let mut batch = Act::zeros(1, PATCH_SIDE_PX, PATCH_SIDE_PX, 3);
+        let n = batch.data.len();
+        batch.data.copy_from_slice(&input[..n]);
+        self.forward_batch(&batch)[0]
+    }
+
+    /// The network's outputs for a batch of inputs from [`input`], one image each: every
+    /// layer one matrix product for the whole batch.
+    pub fn forward_batch(&self, batch: &Act) -> Vec<Verdict> {
+        debug_assert_eq!(
+            (batch.h, batch.w, batch.c),
+            (PATCH_SIDE_PX, PATCH_SIDE_PX, 3)
+        );
+        let mut scratch = Vec::new();
+        let mut a = self.convs[0].forward(batch, true, &mut scratch);
+        for conv in &self.convs[1..] {
+            a = conv.forward(&a, true, &mut scratch);
         }
-        dense(&a, &self.hidden, true, &mut b);
-        dense(&b, &self.output, false, &mut a);
-        Verdict {
-            logit: a[0],
-            offset: [a[1], a[2]],
-            log_scale: a[3],
-        }
+        verdicts(&self.output.dense(&self.hidden.dense(&a, true), false))
     }
 
     /// The verdict on a proposal in an image, or `None` when no patch can be cut.
     pub fn judge(&self, image: &RgbImage, circle: &Circle) -> Option<Verdict> {
-        let patch = patch_for(image, circle)?;
-        Some(self.forward(&input(&patch)))
+        self.judge_all(image, std::slice::from_ref(circle))
+            .pop()
+            .flatten()
+    }
+
+    /// [`BallNet::judge`] of every proposal of one image, in order, run as one batch.
+    pub fn judge_all(&self, image: &RgbImage, circles: &[Circle]) -> Vec<Option<Verdict>> {
+        let side = PATCH_SIDE_PX * PATCH_SIDE_PX * 3;
+        let patches: Vec<Option<RgbPatch>> = circles.iter().map(|c| patch_for(image, c)).collect();
+        let cut = patches.iter().flatten().count();
+        if cut == 0 {
+            return vec![None; circles.len()];
+        }
+        let mut batch = Act::zeros(cut, PATCH_SIDE_PX, PATCH_SIDE_PX, 3);
+        for (dst, patch) in batch
+            .data
+            .chunks_exact_mut(side)
+            .zip(patches.iter().flatten())
+        {
+            dst.copy_from_slice(&input(patch));
+        }
+        let mut verdicts = self.forward_batch(&batch).into_iter();
+        patches
+            .iter()
+            .map(|p| p.as_ref().and_then(|_| verdicts.next()))
+            .collect()
     }
 }
 

@@ -122,15 +122,7 @@ impl Checker {
                 a = max_pool2(&a);
             }
         }
-        let out = self.output.dense(&self.hidden.dense(&a, true), false);
-        out.data
-            .chunks_exact(OUTPUTS)
-            .map(|v| Verdict {
-                logit: v[0],
-                offset: [v[1], v[2]],
-                log_scale: v[3],
-            })
-            .collect()
+        crate::ballnet::verdicts(&self.output.dense(&self.hidden.dense(&a, true), false))
     }
 
     /// The verdict on each circle of an image, `None` where no patch can be cut.

@@ -101,4 +101,13 @@ impl CandidateClassifier for NetClassifier {
         let v = self.net.judge(image, circle)?;
         Some((v.probability(), v.refine(circle)))
     }
+
+    fn judge_all(&self, image: &RgbImage, circles: &[Circle]) -> Vec<Option<(f64, Circle)>> {
+        self.net
+            .judge_all(image, circles)
+            .into_iter()
+            .zip(circles)
+            .map(|(v, c)| v.map(|v| (v.probability(), v.refine(c))))
+            .collect()
+    }
 }

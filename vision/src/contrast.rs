@@ -44,7 +44,7 @@ impl Default for AppearanceConfig {
         AppearanceConfig {
             max_candidates: 48,
             min_contrast: 0.05,
-            min_radius_px: 2.0,
+            min_radius_px: 7.0,
             max_radius_px: 160.0,
             luminance_weight: 0.1,
         }
@@ -96,35 +96,7 @@ struct Level {
 impl Level {
     /// The level of half the size, each pixel the mean of a 2×2 block.
     fn halved(&self) -> Option<Level> {
-        let (w, h) = (self.width / 2, self.height / 2);
-        if w < 8 || h < 8 {
-            return None;
-        }
-        let mut data = vec![0u8; 3 * w * h];
-        let src = &self.data;
-        let stride = 3 * self.width;
-        for y in 0..h {
-            let (r0, r1) = (
-                &src[2 * y * stride..][..stride],
-                &src[(2 * y + 1) * stride..][..stride],
-            );
-            let out = &mut data[3 * y * w..][..3 * w];
-            for x in 0..w {
-                for k in 0..3 {
-                    let i = 6 * x + k;
-                    let s = u16::from(r0[i])
-                        + u16::from(r0[i + 3])
-                        + u16::from(r1[i])
-                        + u16::from(r1[i + 3]);
-                    out[3 * x + k] = ((s + 2) / 4) as u8;
-                }
-            }
-        }
-        Some(Level {
-            data,
-            width: w,
-            height: h,
-        })
+        halve(&self.data, self.width, self.height)
     }
 
     /// The integral images of the level's opponent channels, one plane after another,
@@ -157,6 +129,39 @@ impl Level {
     }
 }
 
+/// The level of half the size of an RGB image, each pixel the mean of a 2×2 block
+/// (rounded); none when it would be under 8 pixels on a side.
+fn halve(src: &[u8], width: usize, height: usize) -> Option<Level> {
+    let (w, h) = (width / 2, height / 2);
+    if w < 8 || h < 8 {
+        return None;
+    }
+    let mut data = vec![0u8; 3 * w * h];
+    let stride = 3 * width;
+    for y in 0..h {
+        let (r0, r1) = (
+            &src[2 * y * stride..][..stride],
+            &src[(2 * y + 1) * stride..][..stride],
+        );
+        let out = &mut data[3 * y * w..][..3 * w];
+        for x in 0..w {
+            for k in 0..3 {
+                let i = 6 * x + k;
+                let s = u16::from(r0[i])
+                    + u16::from(r0[i + 3])
+                    + u16::from(r1[i])
+                    + u16::from(r1[i + 3]);
+                out[3 * x + k] = ((s + 2) / 4) as u8;
+            }
+        }
+    }
+    Some(Level {
+        data,
+        width: w,
+        height: h,
+    })
+}
+
 /// A proposal before the ranking: where, how big and how strong.
 #[derive(Debug, Clone, Copy)]
 struct Peak {
@@ -168,7 +173,8 @@ struct Peak {
 
 /// The responses of one row's interior pixels (every box inside the level), written as
 /// whole-row slice arithmetic so the compiler can vectorise it; the same values as the
-/// per-pixel path of [`responses`].
+/// per-pixel path of [`responses`]. `buf` holds the boxes' means between rows (resized
+/// here once, then reused).
 #[allow(clippy::too_many_arguments)]
 fn interior_row(
     sums: &[i32],
@@ -178,48 +184,59 @@ fn interior_row(
     xs: std::ops::Range<usize>,
     weights: [f32; 3],
     min2: f32,
+    buf: &mut Vec<f32>,
     out: &mut [f32],
 ) {
     let n = xs.len();
-    // A box's per-channel means along the row: columns [x + x0, x + x1) and rows
-    // [y0, y1) for every x of `xs` (every box lies inside the level).
-    let means = |x0: isize, x1: isize, y0: usize, y1: usize| -> [Vec<f32>; 3] {
+    // The centre square, then the ring's four sides (above, below, left, right): columns
+    // [x + x0, x + x1) and rows [y0, y1) for every x of `xs` (every box lies inside the
+    // level).
+    let (ai, bi) = (a as isize, b as isize);
+    let boxes = [
+        (-ai, ai + 1, y - a, y + a + 1),
+        (-bi, bi + 1, y - b, y - a),
+        (-bi, bi + 1, y + a + 1, y + b + 1),
+        (-bi, -ai, y - a, y + a + 1),
+        (ai + 1, bi + 1, y - a, y + a + 1),
+    ];
+    buf.resize(boxes.len() * 3 * n + n, 0.0);
+    let (means, least) = buf.split_at_mut(boxes.len() * 3 * n);
+    for (i, &(x0, x1, y0, y1)) in boxes.iter().enumerate() {
         let inv = 1.0 / ((x1 - x0) as usize * (y1 - y0)) as f32;
         let (c0, c1) = (
             xs.start.saturating_add_signed(x0),
             xs.start.saturating_add_signed(x1),
         );
-        std::array::from_fn(|k| {
+        for k in 0..3 {
             let o = k * plane;
             let top = &sums[o + y0 * iw..][..iw];
             let bottom = &sums[o + y1 * iw..][..iw];
-            top[c0..c0 + n]
-                .iter()
-                .zip(&top[c1..c1 + n])
+            let dst = &mut means[(3 * i + k) * n..][..n];
+            for ((d, (&tl, &tr)), (&bl, &br)) in dst
+                .iter_mut()
+                .zip(top[c0..c0 + n].iter().zip(&top[c1..c1 + n]))
                 .zip(bottom[c0..c0 + n].iter().zip(&bottom[c1..c1 + n]))
-                .map(|((&tl, &tr), (&bl, &br))| (br - bl - tr + tl) as f32 * inv)
-                .collect()
-        })
-    };
-    let (ai, bi) = (a as isize, b as isize);
-    let centre = means(-ai, ai + 1, y - a, y + a + 1);
-    let sides = [
-        means(-bi, bi + 1, y - b, y - a),
-        means(-bi, bi + 1, y + a + 1, y + b + 1),
-        means(-bi, -ai, y - a, y + a + 1),
-        means(ai + 1, bi + 1, y - a, y + a + 1),
-    ];
-    let mut least = vec![f32::INFINITY; n];
-    for side in &sides {
-        for (i, l) in least.iter_mut().enumerate() {
-            let d0 = centre[0][i] - side[0][i];
-            let d1 = centre[1][i] - side[1][i];
-            let d2 = centre[2][i] - side[2][i];
-            let d = weights[0] * d0 * d0 + weights[1] * d1 * d1 + weights[2] * d2 * d2;
-            *l = l.min(d);
+            {
+                *d = (br - bl - tr + tl) as f32 * inv;
+            }
         }
     }
-    for (o, l) in out[xs].iter_mut().zip(&least) {
+    let (centre, sides) = means.split_at(3 * n);
+    least.fill(f32::INFINITY);
+    for side in sides.chunks_exact(3 * n) {
+        let (s0, rest) = side.split_at(n);
+        let (s1, s2) = rest.split_at(n);
+        let (c0, rest) = centre.split_at(n);
+        let (c1, c2) = rest.split_at(n);
+        for i in 0..n {
+            let d0 = c0[i] - s0[i];
+            let d1 = c1[i] - s1[i];
+            let d2 = c2[i] - s2[i];
+            let d = weights[0] * d0 * d0 + weights[1] * d1 * d1 + weights[2] * d2 * d2;
+            least[i] = least[i].min(d);
+        }
+    }
+    for (o, l) in out[xs].iter_mut().zip(least.iter()) {
         *o = if *l >= min2 { l.sqrt() / 255.0 } else { 0.0 };
     }
 }
@@ -267,6 +284,7 @@ fn responses(
         (0..0, 0..0)
     };
     if !interior_x.is_empty() {
+        let mut buf = Vec::new();
         for y in interior_y.clone() {
             interior_row(
                 sums,
@@ -276,17 +294,23 @@ fn responses(
                 interior_x.clone(),
                 weights,
                 min2,
+                &mut buf,
                 &mut out[y * w..][..w],
             );
         }
     }
+    // The pixels left: the whole row, or only its ends when its interior was done.
+    let rest = |y: usize| {
+        if interior_y.contains(&y) && !interior_x.is_empty() {
+            (0..interior_x.start).chain(interior_x.end..w)
+        } else {
+            (0..w).chain(w..w)
+        }
+    };
     for y in 0..h {
         let (cy0, cy1) = (y.saturating_sub(a), (y + a + 1).min(h));
         let (sy0, sy1) = (y.saturating_sub(b), (y + b + 1).min(h));
-        for x in 0..w {
-            if interior_y.contains(&y) && interior_x.contains(&x) {
-                continue;
-            }
+        for x in rest(y) {
             let (cx0, cx1) = (x.saturating_sub(a), (x + a + 1).min(w));
             let (sx0, sx1) = (x.saturating_sub(b), (x + b + 1).min(w));
             let Some(c) = boxsum(cx0, cy0, cx1, cy1) else {
@@ -361,49 +385,86 @@ fn repeats(p: &Peak, q: &Peak) -> bool {
 
 /// The frame's proposals, strongest first; each circle's `score` is its response.
 pub fn propose(image: &RgbImage, config: &AppearanceConfig) -> Vec<Circle> {
-    let full = Level {
-        data: image.data().to_vec(),
-        width: image.width() as usize,
-        height: image.height() as usize,
-    };
+    halve(
+        image.data(),
+        image.width() as usize,
+        image.height() as usize,
+    )
+    .map(|half| propose_on(half, config))
+    .unwrap_or_default()
+}
+
+/// [`propose`] for a frame already halved by the caller: `half` is the frame of
+/// `2 width`×`2 height` pixels (or one more in either) with each pixel the mean of a 2×2
+/// block, as values 0..255 (rounded here as the halving here rounds), RGB rows.
+pub fn propose_from_half(
+    half: &[f32],
+    width: usize,
+    height: usize,
+    config: &AppearanceConfig,
+) -> Vec<Circle> {
+    if width < 8 || height < 8 || half.len() != 3 * width * height {
+        return Vec::new();
+    }
+    let data = half
+        .iter()
+        // Halves round up as the halving here does (a cast saturates, and costs far less
+        // than a call to round).
+        .map(|&v| (v + 0.5) as u8)
+        .collect();
+    propose_on(
+        Level {
+            data,
+            width,
+            height,
+        },
+        config,
+    )
+}
+
+/// The proposals of every level from the frame's first halving on.
+fn propose_on(half: Level, config: &AppearanceConfig) -> Vec<Circle> {
     let mut all: Vec<Peak> = Vec::new();
-    let mut level = full.halved();
+    let mut level = Some(half);
     let mut factor = 2.0f64;
     while let Some(l) = level {
         let smallest = RADIUS_OVER_SIDE * 3.0 * factor;
         if smallest > config.max_radius_px {
             break;
         }
-        let sums = l.integral();
-        for a in CENTRE_HALF_SIDES {
-            let radius_px = RADIUS_OVER_SIDE * (2 * a + 1) as f64 * factor;
-            if radius_px < config.min_radius_px || radius_px > config.max_radius_px {
-                continue;
+        let sizes: Vec<(usize, f64)> = CENTRE_HALF_SIDES
+            .iter()
+            .map(|&a| (a, RADIUS_OVER_SIDE * (2 * a + 1) as f64 * factor))
+            .filter(|&(_, r)| r >= config.min_radius_px && r <= config.max_radius_px)
+            .collect();
+        if !sizes.is_empty() {
+            let sums = l.integral();
+            for (a, radius_px) in sizes {
+                let resp = responses(
+                    &sums,
+                    l.width,
+                    l.height,
+                    a,
+                    2 * a + 1,
+                    config.luminance_weight as f32,
+                    config.min_contrast as f32,
+                    true,
+                );
+                peaks(
+                    &resp,
+                    l.width,
+                    l.height,
+                    config.min_contrast as f32,
+                    |x, y, v| {
+                        all.push(Peak {
+                            x_px: (x as f64 + 0.5) * factor - 0.5,
+                            y_px: (y as f64 + 0.5) * factor - 0.5,
+                            radius_px,
+                            contrast: f64::from(v),
+                        })
+                    },
+                );
             }
-            let resp = responses(
-                &sums,
-                l.width,
-                l.height,
-                a,
-                2 * a + 1,
-                config.luminance_weight as f32,
-                config.min_contrast as f32,
-                true,
-            );
-            peaks(
-                &resp,
-                l.width,
-                l.height,
-                config.min_contrast as f32,
-                |x, y, v| {
-                    all.push(Peak {
-                        x_px: (x as f64 + 0.5) * factor - 0.5,
-                        y_px: (y as f64 + 0.5) * factor - 0.5,
-                        radius_px,
-                        contrast: f64::from(v),
-                    })
-                },
-            );
         }
         level = l.halved();
         factor *= 2.0;

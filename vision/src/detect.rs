@@ -226,17 +226,36 @@ impl Detector {
             sparse_blob: false,
             stage,
         };
+        // The candidate network's shrunk frame, kept for the appearance proposals when it
+        // is the frame halved (their first level).
+        let mut half: Option<(Vec<f32>, usize, usize)> = None;
         if let Some(net) = self.candidate_net() {
-            for circle in net.candidates(image, &self.config.candidates) {
+            let g = crate::heatnet::InputGeometry::for_frame_at(
+                image.width(),
+                image.height(),
+                self.config.candidates.input_width_px,
+            );
+            let shrunk = crate::heatnet::shrink(image, &g);
+            for circle in net.candidates_from_shrunk(&shrunk, g, &self.config.candidates) {
                 proposals
                     .items
                     .push(frame_proposal(circle, CandidateStage::Network));
+            }
+            if 2 * g.width_px == image.width() as usize
+                && 2 * g.height_px == image.height() as usize
+            {
+                half = Some((shrunk, g.width_px, g.height_px));
             }
             clock.mark("candidates");
         }
         let net_only = self.config.proposer.net() && self.config.net_appearance_candidates == 0;
         if self.config.proposer.appearance() && !net_only {
-            let mut found = crate::contrast::propose(image, &self.config.appearance);
+            let mut found = match &half {
+                Some((data, w, h)) => {
+                    crate::contrast::propose_from_half(data, *w, *h, &self.config.appearance)
+                }
+                None => crate::contrast::propose(image, &self.config.appearance),
+            };
             if self.config.proposer.net() {
                 found.retain(|c| !proposals.items.iter().any(|p| same_place(&p.frame, c)));
                 found.truncate(self.config.net_appearance_candidates);

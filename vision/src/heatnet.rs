@@ -149,6 +149,10 @@ pub fn shrink(image: &RgbImage, g: &InputGeometry) -> Vec<f32> {
         let b = (((i + 1) * n_in) / n_out).max(a + 1).min(n_in);
         (a, b)
     };
+    if 2 * w == iw && 2 * h == ih {
+        halve_into(data, iw, &mut out);
+        return out;
+    }
     let xs: Vec<(usize, usize)> = (0..w).map(|x| bounds(x, w, iw)).collect();
     for y in 0..h {
         let (y0, y1) = bounds(y, h, ih);
@@ -169,34 +173,60 @@ pub fn shrink(image: &RgbImage, g: &InputGeometry) -> Vec<f32> {
     out
 }
 
+/// The frame halved (each output pixel the mean of a 2×2 block, as the general path of
+/// [`shrink`] computes it), row pair by row pair.
+fn halve_into(data: &[u8], iw: usize, out: &mut [f32]) {
+    let w = iw / 2;
+    let stride = 3 * iw;
+    for (y, out_row) in out.chunks_exact_mut(3 * w).enumerate() {
+        let (r0, r1) = (
+            &data[2 * y * stride..][..stride],
+            &data[(2 * y + 1) * stride..][..stride],
+        );
+        for ((o, a), b) in out_row
+            .chunks_exact_mut(3)
+            .zip(r0.chunks_exact(6))
+            .zip(r1.chunks_exact(6))
+        {
+            for k in 0..3 {
+                let s =
+                    u16::from(a[k]) + u16::from(a[k + 3]) + u16::from(b[k]) + u16::from(b[k + 3]);
+                o[k] = f32::from(s) * 0.25;
+            }
+        }
+    }
+}
+
 /// The network's input from a shrunk frame (values 0..255, `width`×`height`): each channel
 /// less its mean, over the spread of all values (plus a floor), padded with zeros to the
 /// padded size. Training uses the same function.
 pub fn normalise(shrunk: &[f32], g: &InputGeometry) -> Act {
     let (w, h) = (g.width_px, g.height_px);
     let n = (w * h) as f32;
-    let mut mean = [0f32; 3];
+    let mut sum = [0f32; 3];
     for px in shrunk.chunks_exact(3) {
         for k in 0..3 {
-            mean[k] += px[k];
+            sum[k] += px[k];
         }
     }
-    let mean = mean.map(|m| m / n / 255.0);
+    let mean = sum.map(|m| m / n);
     let mut var = 0f32;
     for px in shrunk.chunks_exact(3) {
         for k in 0..3 {
-            let d = px[k] / 255.0 - mean[k];
+            let d = px[k] - mean[k];
             var += d * d;
         }
     }
-    let scale = 1.0 / ((var / (3.0 * n)).sqrt() + 0.03);
+    // In units of 0..1: the spread of the values over 255, plus the floor.
+    let scale = 1.0 / ((var / (3.0 * n)).sqrt() / 255.0 + 0.03) / 255.0;
     let mut act = Act::zeros(1, g.padded_height_px, g.padded_width_px, 3);
-    for y in 0..h {
-        for x in 0..w {
-            let src = &shrunk[(y * w + x) * 3..][..3];
-            let dst = &mut act.data[(y * g.padded_width_px + x) * 3..][..3];
+    for (src, dst) in shrunk
+        .chunks_exact(3 * w)
+        .zip(act.data.chunks_exact_mut(3 * g.padded_width_px))
+    {
+        for (s, d) in src.chunks_exact(3).zip(dst.chunks_exact_mut(3)) {
             for k in 0..3 {
-                dst[k] = (src[k] / 255.0 - mean[k]) * scale;
+                d[k] = (s[k] - mean[k]) * scale;
             }
         }
     }
@@ -277,7 +307,7 @@ pub struct PeakConfig {
 impl Default for PeakConfig {
     fn default() -> Self {
         PeakConfig {
-            max_candidates: 12,
+            max_candidates: 8,
             min_probability: 0.005,
             input_width_px: INPUT_WIDTH_PX,
         }
@@ -381,6 +411,17 @@ impl HeatNet {
     pub fn candidates(&self, image: &RgbImage, cfg: &PeakConfig) -> Vec<Circle> {
         let (x, g) = input_at(image, cfg.input_width_px);
         peaks(&self.forward(&x, g), cfg)
+    }
+
+    /// The candidates of a frame already shrunk by [`shrink`] to `g` (so that the caller
+    /// can reuse the shrunk frame).
+    pub fn candidates_from_shrunk(
+        &self,
+        shrunk: &[f32],
+        g: InputGeometry,
+        cfg: &PeakConfig,
+    ) -> Vec<Circle> {
+        peaks(&self.forward(&normalise(shrunk, &g), g), cfg)
     }
 }
 

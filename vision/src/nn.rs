@@ -1,9 +1,12 @@
 //! The forward pass of the detector's small networks, written for a CPU.
 //!
 //! Activations are batches of images, rows of pixels with the channels innermost
-//! ([`Act`], NHWC). A convolution is an im2col copy and one matrix product for the whole
-//! batch (dilated kernels too); a 1×1 convolution or a dense layer is the matrix product
-//! alone; the products run through nalgebra's general matrix multiply, which hands
+//! ([`Act`], NHWC). A spatial convolution of 8 or 16 outputs (every layer of the shipped
+//! networks) is computed directly: each output pixel's sums held together while the
+//! kernel's taps are read in place, which moves far less memory than a copy and a packed
+//! product on tensors this small. Any other convolution is an im2col copy and one matrix
+//! product for the whole batch (dilated kernels too); a 1×1 convolution or a dense layer
+//! is the matrix product alone; the products run through nalgebra's general matrix multiply, which hands
 //! dynamically sized f32 products to the `matrixmultiply` crate's cache-blocked, vectorised
 //! kernels (AVX/FMA on x86-64, NEON on the Raspberry Pi's ARM, picked at run time). Pooling
 //! is a direct loop over contiguous channels.
@@ -181,6 +184,13 @@ impl Conv {
             c: self.cout,
             data: vec![0.0; rows * self.cout],
         };
+        // Spatial kernels of 8 or 16 outputs: direct, no copies.
+        let direct = k > 1 || s > 1 || p > 0 || d > 1;
+        match self.cout {
+            8 if direct => return self.direct::<8>(x, relu, out),
+            16 if direct => return self.direct::<16>(x, relu, out),
+            _ => {}
+        }
         fill_bias(&mut out.data, &self.bias);
         if k == 1 && s == 1 && p == 0 && d == 1 {
             gemm_acc(
@@ -232,6 +242,50 @@ impl Conv {
         }
         if relu {
             relu_in_place(&mut out.data);
+        }
+        out
+    }
+
+    /// The convolution computed directly for `CO` outputs (`CO == self.cout`): each
+    /// output pixel's `CO` sums are held together while the kernel's taps inside the image
+    /// are read in place (no im2col copy, no packing), so the innermost loop, over the
+    /// outputs, is a few vector operations for every input value.
+    fn direct<const CO: usize>(&self, x: &Act, relu: bool, mut out: Act) -> Act {
+        let (k, s, p, d, cin) = (self.k, self.stride, self.pad, self.dilation, self.cin);
+        let (oh, ow) = (out.h, out.w);
+        let mut bias = [0f32; CO];
+        bias.copy_from_slice(&self.bias);
+        for i in 0..x.n {
+            for oy in 0..oh {
+                let out_row = &mut out.data[(i * oh + oy) * ow * CO..][..ow * CO];
+                for (ox, dst) in out_row.chunks_exact_mut(CO).enumerate() {
+                    let mut acc = bias;
+                    for ky in 0..k {
+                        let Some(iy) = (oy * s + ky * d).checked_sub(p).filter(|&y| y < x.h) else {
+                            continue;
+                        };
+                        for kx in 0..k {
+                            let Some(ix) = (ox * s + kx * d).checked_sub(p).filter(|&v| v < x.w)
+                            else {
+                                continue;
+                            };
+                            let px = &x.data[((i * x.h + iy) * x.w + ix) * cin..][..cin];
+                            let taps = &self.weights[(ky * k + kx) * cin * CO..][..cin * CO];
+                            for (&v, w) in px.iter().zip(taps.chunks_exact(CO)) {
+                                for (a, &w) in acc.iter_mut().zip(w) {
+                                    *a += v * w;
+                                }
+                            }
+                        }
+                    }
+                    if relu {
+                        for a in &mut acc {
+                            *a = a.max(0.0);
+                        }
+                    }
+                    dst.copy_from_slice(&acc);
+                }
+            }
         }
         out
     }
@@ -475,7 +529,10 @@ mod tests {
     fn convolutions_match_the_textbook_one() {
         for &(n, h, w, cin, cout, k, s, p) in &[
             (2, 9, 11, 3, 12, 3, 2, 1),
+            // Eight and sixteen outputs take the direct path.
+            (2, 9, 11, 3, 8, 3, 2, 1),
             (1, 8, 8, 8, 16, 3, 1, 1),
+            (1, 12, 10, 16, 16, 3, 2, 1),
             (3, 5, 7, 12, 24, 1, 1, 0),
             (1, 4, 4, 2, 3, 3, 1, 1),
         ] {
@@ -498,7 +555,13 @@ mod tests {
 
     #[test]
     fn dilated_convolutions_match_spread_kernels() {
-        let (h, w, cin, cout, d) = (9, 8, 3, 5, 2);
+        for cout in [5, 16] {
+            dilated_matches_spread(cout);
+        }
+    }
+
+    fn dilated_matches_spread(cout: usize) {
+        let (h, w, cin, d) = (9, 8, 3, 2);
         let x = Act {
             n: 1,
             h,

@@ -268,8 +268,10 @@ fn resample(
 ) -> Vec<[f32; 3]> {
     let side_px = config.window_over_radius * radius_px;
     let step_px = side_px / PATCH_SIDE_PX as f64;
-    // Sub-samples per patch pixel and axis: enough that their spacing is at most a pixel.
-    let sub = step_px.ceil().clamp(1.0, 8.0) as usize;
+    // Sub-samples per patch pixel and axis: enough that their spacing is at most a pixel,
+    // up to 4 (each a bilinear tap of four pixels, so a window up to 8 pixels a patch pixel
+    // is still read whole; beyond, more samples cost more than they change).
+    let sub = step_px.ceil().clamp(1.0, 4.0) as usize;
     let sub_step_px = step_px / sub as f64;
     let weight = 1.0 / (sub * sub) as f32;
     let (w, h) = (image.width() as usize, image.height() as usize);

@@ -34,11 +34,12 @@ pub fn collect_samples(
     what: &str,
 ) -> Result<(Vec<Sample>, SampleCounts)> {
     let bar = bar(items.len(), what);
-    // The candidate network's peaks, as the robot's detector proposes them: its hard
-    // negatives (ceiling lights, white robot parts) are what the network must learn.
+    // The candidate network's peaks, as the robot's detector proposes them and more (24,
+    // three times the detector's 8): its hard negatives (ceiling lights, white robot
+    // parts) are what the network must learn.
     let heat = crate::builtin::candidate_net().context("the shipped candidate network")?;
     let peaks = crate::detection::heatnet::PeakConfig {
-        max_candidates: 2 * DetectorConfig::default().candidates.max_candidates,
+        max_candidates: 24,
         ..DetectorConfig::default().candidates
     };
     let mut samples = Vec::new();

@@ -59,7 +59,12 @@ pub struct SampleConfig {
 impl Default for SampleConfig {
     fn default() -> Self {
         SampleConfig {
-            appearance: AppearanceConfig::default(),
+            // Proposals of every size, the small ones the detector leaves to the candidate
+            // network included: more hard negatives, and the shipped network's recipe.
+            appearance: AppearanceConfig {
+                min_radius_px: 2.0,
+                ..AppearanceConfig::default()
+            },
             copies_per_ball: 6,
             random_per_photo: 4,
             copy_offset: 0.35,
