@@ -94,11 +94,6 @@ struct Level {
 }
 
 impl Level {
-    /// The level of half the size, each pixel the mean of a 2×2 block.
-    fn halved(&self) -> Option<Level> {
-        halve(&self.data, self.width, self.height)
-    }
-
     /// The integral images of the level's opponent channels, one plane after another,
     /// each with a zero first row and column: brightness `R + G + B`, red-green `R - G`,
     /// yellow-blue `R + G - 2 B`, all exact in integers.
@@ -466,7 +461,7 @@ fn propose_on(half: Level, config: &AppearanceConfig) -> Vec<Circle> {
                 );
             }
         }
-        level = l.halved();
+        level = halve(&l.data, l.width, l.height);
         factor *= 2.0;
     }
     all.sort_by(|p, q| q.contrast.total_cmp(&p.contrast));

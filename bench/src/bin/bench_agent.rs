@@ -67,6 +67,28 @@ fn section(kind: DetectorKind, suffix: &str) -> (String, String) {
     )
 }
 
+/// Rewrites the detector's section (with its suffix) of the markdown file `path` with
+/// `table`, under the command that repeats the run (`flags`, then the detector's own).
+fn write_doc(
+    path: &std::path::Path,
+    detector: &DetectorArgs,
+    suffix: &str,
+    flags: &str,
+    table: &str,
+) -> Result<()> {
+    let (begin, end) = section(detector.kind, suffix);
+    let cmd = format!(
+        "cargo run --release -p bench --bin bench_agent --{flags}{} --doc {}",
+        detector.command_line(),
+        path.display()
+    );
+    let section = format!("Produced by `{cmd}`.\n\n{table}");
+    eval::report::rewrite_section_between(path, &begin, &end, &section)
+        .with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("updated {}", path.display());
+    Ok(())
+}
+
 /// Every stage's durations, milliseconds, in pipeline order.
 #[derive(Debug, Default)]
 struct Stages {
@@ -298,22 +320,12 @@ fn bench_photos(args: &BenchArgs, dirs: &[PathBuf]) -> Result<()> {
     table += &format!("Target: ≤ 2 ms per frame median: {met}.\n");
     println!("{table}");
     if let Some(path) = &args.doc {
-        let (begin, end) = section(args.detector.kind, "-photos");
         let folders: Vec<String> = dirs
             .iter()
             .map(|d| format!(" --photos {}", d.display()))
             .collect();
-        let cmd = format!(
-            "cargo run --release -p bench --bin bench_agent --{} --photo-count {}{} --doc {}",
-            folders.concat(),
-            args.photo_count,
-            args.detector.command_line(),
-            path.display()
-        );
-        let section = format!("Produced by `{cmd}`.\n\n{table}");
-        eval::report::rewrite_section_between(path, &begin, &end, &section)
-            .with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("updated {}", path.display());
+        let flags = format!("{} --photo-count {}", folders.concat(), args.photo_count);
+        write_doc(path, &args.detector, "-photos", &flags, &table)?;
     }
     Ok(())
 }
@@ -476,18 +488,8 @@ fn main() -> Result<()> {
     }
     println!("{table}");
     if let Some(path) = &args.doc {
-        let flag = args.detector.command_line();
-        let (begin, end) = section(args.detector.kind, "");
-        let cmd = format!(
-            "cargo run --release -p bench --bin bench_agent -- --matches {} --seconds {}{flag} --doc {}",
-            args.matches,
-            args.seconds,
-            path.display()
-        );
-        let section = format!("Produced by `{cmd}`.\n\n{table}");
-        eval::report::rewrite_section_between(path, &begin, &end, &section)
-            .with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("updated {}", path.display());
+        let flags = format!(" --matches {} --seconds {}", args.matches, args.seconds);
+        write_doc(path, &args.detector, "", &flags, &table)?;
     }
     Ok(())
 }
