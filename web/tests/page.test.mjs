@@ -139,17 +139,33 @@ async function liveChecks(browser, recordDir) {
     `observation ellipses for every reporting robot (${reporting.join(", ")}; drawn for ${[...seen].sort().join(", ")})`);
 
   // The panel: a row per robot with its rate, trust, latency and outliers; rejections by reason.
+  // What the last look saw, for the failure's message.
+  let panelSeen = "";
   await until("the panel's robots and rejections", async () => {
     const [rows, reasons, apiNow] = await Promise.all([
       page.$$eval("#robots tr", (trs) => trs.map((tr) => [...tr.children].map((td) => td.textContent))),
       page.$$eval("#rejected li[data-reason]", (lis) => lis.map((li) => li.dataset.reason)),
       getJson(url, "/api/state"),
     ]);
-    const same = JSON.stringify(reasons.sort()) === JSON.stringify(Object.keys(apiNow.rejected).sort());
-    return rows.length === ROBOTS && rows.every((r) => r.length === 7 && /ms$/.test(r[4]) && /^[+-]\d+ ms( ✓)?$/.test(r[6])) && same;
-  }, 5000)
+    const server = Object.keys(apiNow.rejected).sort();
+    const same = JSON.stringify(reasons.sort()) === JSON.stringify(server);
+    // A robot the server has no latency or clock estimate for yet (none of its sightings
+    // accepted so far) shows a dash there; every other shows the server's figures.
+    const known = new Map(apiNow.robots.map((r) => [r.robot_id, r]));
+    const inForm = (r) => {
+      const s = known.get(r[0]);
+      if (!s || r.length !== 7) return false;
+      const latency = s.latency_s == null ? r[4] === "–" : /ms$/.test(r[4]);
+      const clock = s.clock_offset_s == null ? /^–( ✓)?$/.test(r[6]) : /^[+-]\d+ ms( ✓)?$/.test(r[6]);
+      return latency && clock;
+    };
+    const odd = rows.filter((r) => !inForm(r));
+    panelSeen = `${rows.length} rows (want ${ROBOTS}); rows not in form: ${JSON.stringify(odd)}; ` +
+      `rejections on the page [${reasons.join(", ")}], at the server [${server.join(", ")}]`;
+    return rows.length === ROBOTS && !odd.length && same;
+  }, 10_000)
     .then(() => check(true, "panel: every robot with rate, trust, latency, outliers and clock offset; the rejections by reason as the server counts them"))
-    .catch(() => fail("the panel's robot table or rejection list does not match the server"));
+    .catch(() => fail(`the panel's robot table or rejection list does not match the server: ${panelSeen}`));
 
   // The server records a match log: the panel names its file, and no alert is up.
   await until("the recording's line", async () => {
