@@ -1,16 +1,16 @@
 //! The detector on photos it was never tuned or trained on: randomised held-out photos
 //! ([`sim::photo_synth`]'s `heldout` profile) on three kinds of background, and real
 //! photographs (with balls, and without), scored per image against their labels by
-//! [`robot_agent::labels::eval`] with no camera model, as `robot-agent evaluate` does.
+//! [`lab::labels::eval`] with no camera model, as `ball-lab evaluate` does.
 //!
 //! Every row says where its photos come from: `simulated` rows are painted by this
 //! project; `real` rows are photographs nobody here made.
 
 use crate::plot::{Chart, Marker, PALETTE, Series, Style, write_png};
 use anyhow::{Context, Result};
+use lab::labels::BallBox;
+use lab::labels::eval::{LabelEval, LabelReport, SIZE_BANDS_PX, TimingMs, band_name};
 use robot_agent::RgbImage;
-use robot_agent::labels::BallBox;
-use robot_agent::labels::eval::{LabelEval, LabelReport, SIZE_BANDS_PX, TimingMs, band_name};
 use robot_agent::{CandidateClassifier, Detector, NoClock, detect_photo};
 use serde::Serialize;
 use sim::Frame;
@@ -191,10 +191,10 @@ pub fn evaluate_photos(
         let xml_path = cfg.real_balls.join("labels").join(format!("{stem}.xml"));
         let xml = std::fs::read_to_string(&xml_path)
             .with_context(|| format!("reading {}", xml_path.display()))?;
-        let labels = robot_agent::labels::voc::parse_voc(
+        let labels = lab::labels::voc::parse_voc(
             &xml,
             &xml_path.display().to_string(),
-            &robot_agent::labels::BallNames::default(),
+            &lab::labels::BallNames::default(),
         )?;
         let name = p.file_name().and_then(|s| s.to_str()).unwrap_or_default();
         score(
@@ -417,8 +417,8 @@ pub fn write_plot(dir: &Path, name: &str, results: &[PhotoSetResult]) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lab::labels::eval::is_hit;
     use robot_agent::Circle;
-    use robot_agent::labels::eval::is_hit;
 
     fn ball(x: f64, y: f64, w: f64) -> BallBox {
         BallBox {

@@ -1,7 +1,7 @@
 //! Evaluation plots: line, dashed and marker series and rectangle outlines, drawn with
 //! plotters and saved as PNG.
 //!
-//! Text is drawn with the DejaVu Sans font embedded from `robot-agent/assets/fonts` (see the README
+//! Text is drawn with the DejaVu Sans font embedded from `lab/assets/fonts` (see the README
 //! there), so the images look the same on every machine and need no system fonts. This
 //! file holds the chart description and the layout decisions (ranges, equal aspect,
 //! where the legend goes); `plot/draw.rs` turns them into plotters calls.
@@ -168,7 +168,7 @@ pub const MAX_SIZE: u32 = 8192;
 
 /// The family name the embedded font is registered under.
 const FONT: &str = "sans-serif";
-static FONT_TTF: &[u8] = include_bytes!("../../robot-agent/assets/fonts/DejaVuSans.ttf");
+use lab::CHART_FONT_TTF as FONT_TTF;
 
 /// Registers the embedded font with plotters once per process.
 fn ensure_font() -> Result<(), PlotError> {

@@ -5,11 +5,11 @@
 //! ball per frame, a labeller must find every ball of a photo and give nothing else a
 //! ball's label. So a box is a true positive when its centre lies in a labelled ball's
 //! box that no better box took already (one box per ball; the hit rule is the one of
-//! `robot_agent::labels::eval`), a false positive otherwise; a ball no box took is
+//! `lab::labels::eval`), a false positive otherwise; a ball no box took is
 //! missed. Recall is per labelled ball, overall and per width band; precision per box.
 
-use robot_agent::labels::BallBox;
-use robot_agent::labels::eval::SIZE_BANDS_PX;
+use lab::labels::BallBox;
+use lab::labels::eval::SIZE_BANDS_PX;
 use serde::Serialize;
 
 /// One photo's labelled balls and the labeller's ball boxes with their scores.

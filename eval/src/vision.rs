@@ -35,7 +35,7 @@ pub struct VisionConfig {
     pub latency_s: f64,
     /// The agent's detector (the robot's default unless told otherwise).
     pub detector: DetectorKind,
-    /// A model file of `robot-agent train` in place of the shipped one.
+    /// A model file of `ball-lab train` in place of the shipped one.
     pub model: Option<PathBuf>,
 }
 

@@ -94,19 +94,16 @@ fn a_written_photo_set_reads_back_as_labelled_photos() {
     let with_ball = write_photo_set(&spec, dir.path(), &Progress::hidden(9)).expect("photo set");
     assert!(with_ball > 0 && with_ball <= 9);
     let classes = std::fs::read_to_string(dir.path().join("labels/classes.txt")).unwrap();
-    let names = robot_agent::labels::yolo::parse_classes_txt(&classes);
-    let ids = robot_agent::labels::yolo::BallClassIds::from_names(
-        &names,
-        &robot_agent::labels::BallNames::default(),
-    );
+    let names = lab::labels::yolo::parse_classes_txt(&classes);
+    let ids =
+        lab::labels::yolo::BallClassIds::from_names(&names, &lab::labels::BallNames::default());
     let mut balls = 0;
     for i in 0..9 {
         let image = robot_agent::load_rgb(&dir.path().join(format!("images/{i:05}.jpg")))
             .expect("a JPEG photo");
         let text = std::fs::read_to_string(dir.path().join(format!("labels/{i:05}.txt"))).unwrap();
-        let labels =
-            robot_agent::labels::yolo::parse_yolo(&text, "t", image.width(), image.height(), &ids)
-                .expect("YOLO labels");
+        let labels = lab::labels::yolo::parse_yolo(&text, "t", image.width(), image.height(), &ids)
+            .expect("YOLO labels");
         balls += labels.balls.len();
     }
     assert_eq!(balls, with_ball);

@@ -51,18 +51,16 @@ pub mod cli;
 use vision as detection;
 use vision::image;
 mod io;
-pub mod labels;
 mod pipeline;
 mod projection;
 mod runtime;
 #[cfg(test)]
 mod test_fixtures;
-mod training;
 mod view;
 
 pub use agent::{Agent, FrameInput, PipelineConfig};
-pub use calibration::calibrate::{Board, Calibration, LensModel, calibrate_with, detect_views};
 pub use calibration::camera::CameraModel;
+pub use calibration::{Calibration, CalibrationError, ViewResult};
 pub use detection::ballnet::BallNet;
 pub use detection::checker::Checker;
 pub use detection::detect::{CandidateClassifier, Detector, DetectorConfig, NoClock, StageClock};
@@ -75,7 +73,8 @@ pub use detection::svm::Model as SvmModel;
 pub use image::RgbImage;
 pub use image::gray::GrayImage;
 pub use io::image_io::{
-    decode_gray, decode_rgb, encode_png, image_files, image_files_recursive, load_rgb,
+    ImageIoError, decode_gray, decode_rgb, encode_png, image_files, image_files_recursive,
+    load_gray, load_rgb,
 };
 pub use io::ros_msg;
 #[cfg(any(test, feature = "test-support"))]
@@ -90,5 +89,4 @@ pub use runtime::timer::StageTimer;
 pub use runtime::{
     FrameHook, FrameReport, RunArgs, Source, Summary as RunSummary, run as run_agent, wall_now,
 };
-pub use training::hog_svm::miners as training_miners;
 pub use view::{VIEW_JPEG_TARGET_BYTES, ViewError, camera_view};

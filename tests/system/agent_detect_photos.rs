@@ -1,4 +1,4 @@
-//! `robot-agent detect` as a process, on a folder of photos with no index: a ball rendered
+//! `ball-lab detect` as a process, on a folder of photos with no index: a ball rendered
 //! by the simulator, the same view without it and a file that is not an image; camera
 //! flags and a calibration of another size.
 
@@ -13,7 +13,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 /// The `robot-agent` command line, built by this package from the product's source.
-const AGENT_CLI: &str = env!("CARGO_BIN_EXE_system-robot-agent");
+const LAB_CLI: &str = env!("CARGO_BIN_EXE_system-ball-lab");
 
 /// The simulated MiRo's left camera at the centre spot, looking along the pitch, with the
 /// ball `ball_m` ahead (or none): the photo and the ball's centre and radius in it.
@@ -35,7 +35,7 @@ fn write_png(path: &Path, image: &RgbImage) {
 }
 
 fn detect(args: &[&str]) -> Output {
-    Command::new(AGENT_CLI)
+    Command::new(LAB_CLI)
         .arg("detect")
         // Rendered MiRo frames: the dissertation's colour path, tuned to the simulated ball.
         .args(["--detector", "dissertation"])

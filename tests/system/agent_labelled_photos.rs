@@ -1,11 +1,11 @@
-//! `robot-agent evaluate` and `train --images --labels` as processes on a labelled folder
+//! `ball-lab evaluate` and `train --images --labels` as processes on a labelled folder
 //! written here: frames rendered by the simulator (not photographs) with the renderer's
 //! ball boxes as Pascal VOC and as YOLO labels.
 
 #![allow(clippy::unwrap_used)]
 
+use lab::labels::BallBox;
 use robot_agent::RgbImage;
-use robot_agent::labels::BallBox;
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig};
@@ -14,7 +14,7 @@ use std::path::Path;
 use std::process::Command;
 
 /// The `robot-agent` command line, built by this package from the product's source.
-const AGENT_CLI: &str = env!("CARGO_BIN_EXE_system-robot-agent");
+const LAB_CLI: &str = env!("CARGO_BIN_EXE_system-ball-lab");
 
 /// Renders frames of a simulated match into `dir/images`, with VOC labels in `dir/voc` and
 /// YOLO labels (and a classes.txt) in `dir/yolo`; returns (frames with a ball, without).
@@ -59,7 +59,7 @@ fn write_folder(dir: &Path) -> (usize, usize) {
                 let png = robot_agent::encode_png(&image).unwrap();
                 std::fs::write(dir.join(format!("images/{name}.png")), png).unwrap();
                 let balls: Vec<BallBox> = ball.into_iter().collect();
-                let voc = robot_agent::labels::voc::write_voc(
+                let voc = lab::labels::voc::write_voc(
                     &format!("{name}.png"),
                     frame.width,
                     frame.height,
@@ -68,9 +68,7 @@ fn write_folder(dir: &Path) -> (usize, usize) {
                 std::fs::write(dir.join(format!("voc/{name}.xml")), voc).unwrap();
                 let yolo: String = balls
                     .iter()
-                    .map(|b| {
-                        robot_agent::labels::yolo::yolo_line(1, b, frame.width, frame.height) + "\n"
-                    })
+                    .map(|b| lab::labels::yolo::yolo_line(1, b, frame.width, frame.height) + "\n")
                     .collect();
                 std::fs::write(dir.join(format!("yolo/{name}.txt")), yolo).unwrap();
                 if ball.is_some() {
@@ -90,7 +88,7 @@ fn write_folder(dir: &Path) -> (usize, usize) {
 }
 
 fn agent(args: &[&str]) -> String {
-    let out = Command::new(AGENT_CLI).args(args).output().unwrap();
+    let out = Command::new(LAB_CLI).args(args).output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),
@@ -152,7 +150,7 @@ fn evaluate_and_train_on_a_labelled_folder() {
 
     // Without a names list, YOLO labels need --ball-class.
     std::fs::remove_file(d.join("yolo/classes.txt")).unwrap();
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--images", &p("images"), "--labels", &p("yolo")])
         .output()
         .unwrap();
@@ -213,7 +211,7 @@ fn evaluate_and_train_on_a_labelled_folder() {
 
     // A file that is not a model is refused, naming it.
     std::fs::write(d.join("broken.json"), "{\"not\": \"a model\"}").unwrap();
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args([
             "detect",
             "--images",

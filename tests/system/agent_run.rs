@@ -239,7 +239,7 @@ fn a_calibration_of_another_shape_is_refused() {
     );
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("left.toml");
-    let made = Command::new(AGENT_CLI)
+    let made = Command::new(env!("CARGO_BIN_EXE_system-ball-lab"))
         .args(["calibrate", "--images", photos, "--out"])
         .arg(&out)
         .output()

@@ -9,14 +9,14 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// The `robot-agent` command line, built by this package from the product's source.
-const AGENT_CLI: &str = env!("CARGO_BIN_EXE_system-robot-agent");
+const LAB_CLI: &str = env!("CARGO_BIN_EXE_system-ball-lab");
 
 fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
 }
 
 fn agent(args: &[&str]) -> Output {
-    Command::new(AGENT_CLI).args(args).output().unwrap()
+    Command::new(LAB_CLI).args(args).output().unwrap()
 }
 
 /// Real photos without labels: OpenCV's football photo and two onboard MSL photos.

@@ -1,20 +1,20 @@
 //! The shipped ball network on real onboard robot-football photos it was not trained on
 //! (`tests/data/msl-balls`: events held out of its training, Apache-2.0), and a tiny
-//! network trained from those photos by `robot-agent train`, all as processes.
+//! network trained from those photos by `ball-lab train`, all as processes.
 
 #![allow(clippy::unwrap_used)]
 
 use std::path::Path;
 use std::process::Command;
 
-const AGENT_CLI: &str = env!("CARGO_BIN_EXE_system-robot-agent");
+const LAB_CLI: &str = env!("CARGO_BIN_EXE_system-ball-lab");
 
 fn photos() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/msl-balls")
 }
 
 fn evaluate(detector: &str, json: &Path) -> serde_json::Value {
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--detector", detector, "--images"])
         .arg(photos())
         .arg("--json")
@@ -60,7 +60,7 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("tiny.safetensors");
     let plot = dir.path().join("pr.png");
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["train", "--model", "cnn", "--images"])
         .arg(photos())
         .args([
@@ -90,7 +90,7 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
     let png = std::fs::read(&plot).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     // The model is usable: `evaluate --detector net --model` takes it.
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--detector", "net", "--images"])
         .arg(photos())
         .arg("--model")
@@ -103,7 +103,7 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
         String::from_utf8_lossy(&out.stderr)
     );
     // A held-out folder that does not exist is refused by name.
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["train", "--images"])
         .arg(photos())
         .args(["--hold-out", "19990101", "--out"])
@@ -118,7 +118,7 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
 fn calibrate_colour_writes_a_window_evaluate_takes() {
     let dir = tempfile::tempdir().unwrap();
     let settings = dir.path().join("colour.toml");
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["calibrate-colour", "--images"])
         .arg(photos())
         .arg("--out")
@@ -136,7 +136,7 @@ fn calibrate_colour_writes_a_window_evaluate_takes() {
     let t = config.detector.thresholds;
     assert!(t.hue_lo_deg > 10.0 && t.hue_hi_deg < 90.0, "{t:?}");
     assert!(!t.contains(120.0, 0.6, 0.5), "{t:?}");
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--detector", "dissertation", "--config"])
         .arg(&settings)
         .arg("--images")
@@ -155,7 +155,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     let dir = tempfile::tempdir().unwrap();
     // The shipped two-stage detector: at most 16 candidates a photo (12 heatmap peaks and
     // 4 appearance proposals), each stage scored.
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--detector", "two-stage", "--images"])
         .arg(photos())
         .arg("--json")
@@ -183,7 +183,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     // `train` does by default), with a part held out by itself, its recipe and held-out
     // score, taken by `evaluate --model` (which then runs it as the two-stage detector).
     let model = dir.path().join("tiny.safetensors");
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["train", "--model", "detector", "--images"])
         .arg(photos())
         .args([
@@ -219,7 +219,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
         "{:?}",
         net.metadata()
     );
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--detector", "two-stage", "--images"])
         .arg(photos())
         .arg("--model")
@@ -236,7 +236,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     // A truncated detector file is refused by name.
     let broken = dir.path().join("broken.safetensors");
     std::fs::write(&broken, &bytes[..bytes.len() / 2]).unwrap();
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--detector", "two-stage", "--images"])
         .arg(photos())
         .arg("--model")
@@ -246,7 +246,7 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("broken.safetensors"));
     // The two-stage file given to the robot's default detector is refused with what to do.
-    let out = Command::new(AGENT_CLI)
+    let out = Command::new(LAB_CLI)
         .args(["evaluate", "--images"])
         .arg(photos())
         .arg("--model")

@@ -1,15 +1,15 @@
 //! A folder of randomised labelled photos ([`sim::photo_synth`]) as a user's own data set
 //! would be laid out: `images/NNNNN.jpg` and YOLO labels `labels/NNNNN.txt` with a
 //! `labels/classes.txt` naming class 0 `ball`, plus a `manifest.json` saying how it was
-//! made (with the ball designs drawn from and each photo's balls' designs). `robot-agent evaluate` and `robot-agent train` read it like any other.
+//! made (with the ball designs drawn from and each photo's balls' designs). `ball-lab evaluate` and `ball-lab train` read it like any other.
 //!
 //! Backgrounds go round in turn: a procedural carpet, a rendered view of the simulated
 //! pitch (ball removed; fisheye frames of a simulated match) and, when given, a real photo.
 
 use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
-use robot_agent::labels::BallBox;
-use robot_agent::labels::yolo::yolo_line;
+use lab::labels::BallBox;
+use lab::labels::yolo::yolo_line;
 use serde::Serialize;
 use sim::Frame;
 use sim::LensModel;
@@ -126,11 +126,11 @@ fn background_balls(
     }
     let text =
         std::fs::read_to_string(&label).with_context(|| format!("reading {}", label.display()))?;
-    let ids = robot_agent::labels::yolo::BallClassIds {
+    let ids = lab::labels::yolo::BallClassIds {
         ids: vec![class],
         known_classes: None,
     };
-    let labels = robot_agent::labels::yolo::parse_yolo(
+    let labels = lab::labels::yolo::parse_yolo(
         &text,
         &label.display().to_string(),
         width_px,

@@ -5,7 +5,7 @@
 //! Frames come from simulated matches through every robot's cameras, and candidates are
 //! proposed in their local views through the agent's calibration of the simulated camera,
 //! exactly as the running agent sees them. Candidates are mined
-//! with the agent's two mining windows ([`robot_agent::training_miners`]): the
+//! with the agent's two mining windows ([`lab::training_miners`]): the
 //! ball's own (wide) window with the two-colour mask of a patterned ball, which proposes
 //! the ball, plain or patterned, and orange-ish look-alikes (wall markings, alone or joined
 //! with the white wall behind them, partly hidden balls), and a window for white and grey
@@ -13,10 +13,10 @@
 //! patches: the round look-alikes the shape filter must learn to refuse.
 
 use anyhow::Result;
+use lab::training_miners as miners;
 use robot_agent::CameraModel;
 use robot_agent::NoClock;
 use robot_agent::RgbImage;
-use robot_agent::training_miners as miners;
 use robot_agent::{Patch, PatchConfig, extract_patch as extract};
 use sim::BallTruth;
 use sim::CameraRig;

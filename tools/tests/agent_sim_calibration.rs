@@ -4,10 +4,10 @@
 
 #![allow(clippy::unwrap_used)]
 
+use lab::{Board, LensModel, calibrate_with, detect_views};
 use robot_agent::CameraModel;
 use robot_agent::GrayImage;
 use robot_agent::RgbImage;
-use robot_agent::{Board, LensModel, calibrate_with, detect_views};
 use sim::{Chessboard, calibration_views, render_chessboard};
 
 /// Largest and RMS distance, pixels, between where the simulator's lens and the model put

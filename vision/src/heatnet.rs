@@ -21,7 +21,7 @@ use crate::nn::{Act, Conv, WeightsError, WeightsFile};
 use std::collections::BTreeMap;
 
 /// The shipped two-stage detector's weights (the candidate network and the grey checker,
-/// safetensors), made by `robot-agent train` (the command and held-out score are in the
+/// safetensors), made by `ball-lab train` (the command and held-out score are in the
 /// file's metadata).
 pub const SHIPPED_WEIGHTS: &[u8] = include_bytes!("../data/detector.safetensors");
 

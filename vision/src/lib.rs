@@ -1,6 +1,6 @@
 //! The robot's vision: one camera frame to ball candidates, one stage per module, with the
 //! image buffers and the camera model it looks through. What the robot runs, and nothing
-//! else: training is the agent's (`robot-agent train`), the floor and the world are the
+//! else: training is the `lab` crate's (`ball-lab train`), the floor and the world are the
 //! agent's pipeline.
 //!
 //! - [`image`]: RGB, grey and mask images.
@@ -19,9 +19,8 @@
 //!   blobs too big for the Hough transform.
 //! - [`patch`]: the 32×32 candidate patch around a circle, with mirroring and rotation.
 //! - [`hog`]: the histogram-of-oriented-gradients descriptor of a patch (288 features).
-//! - [`svm`]: the RBF-kernel SVM candidate filter: SMO training, Platt-calibrated
-//!   probability, model serialisation.
-//! - [`colour_fit`]: the colour window fitted to labelled photos' ball pixels.
+//! - [`svm`]: the RBF-kernel SVM candidate filter: its model file and Platt-calibrated
+//!   probability (its training is the `lab` crate's).
 //! - [`kmeans`]: the dominant-colour check of a candidate by k-means clustering.
 //! - [`classifier`]: the colour check and the HOG + SVM filter as one candidate classifier.
 //! - [`two_colour`]: the two-colour mask of a patterned ball (the ball's colour with white
@@ -49,7 +48,6 @@ pub mod camera;
 pub mod check;
 pub mod checker;
 pub mod classifier;
-pub mod colour_fit;
 pub mod components;
 pub mod contrast;
 pub mod detect;
@@ -69,7 +67,6 @@ pub mod photo;
 pub mod rectify;
 pub mod seeded_mask;
 pub mod svm;
-mod svm_model;
 #[cfg(any(test, feature = "test-support"))]
 pub mod test_fixtures;
 pub mod two_colour;

@@ -1,7 +1,7 @@
 //! Ball candidates in one photo on its own: the image half of the detector and the
 //! classifier, without the robot's pose and so without projection or world validation.
 //!
-//! This is what `robot-agent detect` runs on a folder of someone's own photos. Every circle
+//! This is what `ball-lab detect` runs on a folder of someone's own photos. Every circle
 //! the detector proposed is reported with what became of it: the classifier's colour check
 //! refused it, its probability was too low, a more probable candidate was published, or it
 //! is the one published (at most one per photo, the most probable above the threshold, as

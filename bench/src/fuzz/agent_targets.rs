@@ -3,10 +3,10 @@
 
 use robot_agent::RgbImage;
 
-use robot_agent::labels::BallBox;
-use robot_agent::labels::BallNames;
-use robot_agent::labels::voc::{parse_voc, write_voc};
-use robot_agent::labels::yolo::{
+use lab::labels::BallBox;
+use lab::labels::BallNames;
+use lab::labels::voc::{parse_voc, write_voc};
+use lab::labels::yolo::{
     BallClassIds, parse_classes_txt, parse_data_yaml_names, parse_yolo, yolo_line,
 };
 use robot_agent::ros_msg::{self, Encoding};

@@ -44,7 +44,7 @@ struct Args {
     /// `<!-- evaluate-vision-dissertation:begin -->` / `…:end -->`).
     #[arg(long, value_enum, default_value_t = DetectorKind::default())]
     detector: DetectorKind,
-    /// With `--vision`: a model file of `robot-agent train` in place of the shipped one.
+    /// With `--vision`: a model file of `ball-lab train` in place of the shipped one.
     #[arg(long, requires = "vision")]
     model: Option<PathBuf>,
     /// Write the full report as JSON here.

@@ -113,7 +113,7 @@ impl Settings {
                     path.display(),
                     match key {
                         "calibration" | "calibration_right" => {
-                            " (make it with `robot-agent calibrate`, or remove the key to use the MiRo's nominal lenses)"
+                            " (make it with `ball-lab calibrate`, or remove the key to use the MiRo's nominal lenses)"
                         }
                         "tls" => " (copy the robot's folder from `fusion-server keys` there)",
                         _ => "",

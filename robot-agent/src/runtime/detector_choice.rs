@@ -95,7 +95,7 @@ pub struct DetectorArgs {
     /// dissertation's colour pipeline).
     #[arg(long = "detector", value_enum, default_value_t = DetectorKind::default())]
     pub kind: DetectorKind,
-    /// A model file of `robot-agent train` in place of the detector's shipped weights: a
+    /// A model file of `ball-lab train` in place of the detector's shipped weights: a
     /// colour-patch ball network (`.safetensors`) for `net`, a two-stage detector
     /// (`.safetensors`) for `two-stage`, a HOG + SVM filter (`.json`) for `dissertation`.
     #[arg(long = "model", visible_alias = "classifier", value_name = "FILE")]
@@ -240,7 +240,7 @@ fn load_model(path: &Path) -> Result<LoadedModel> {
             Ok(LoadedModel::BallNet(net))
         }
         Some(format) => bail!(
-            "{name} is a weights file of format {:?}, not a model of `robot-agent train`: \
+            "{name} is a weights file of format {:?}, not a model of `ball-lab train`: \
              give a two-stage detector or a ball network file",
             format.unwrap_or_else(|| "unnamed".to_string())
         ),
@@ -248,12 +248,12 @@ fn load_model(path: &Path) -> Result<LoadedModel> {
             let text = std::str::from_utf8(&bytes).map_err(|_| {
                 anyhow::anyhow!(
                     "{name} is neither a weights file nor a JSON model (truncated, or another \
-                     kind of file): give a model file of `robot-agent train`"
+                     kind of file): give a model file of `ball-lab train`"
                 )
             })?;
             let model = Model::from_json(text).with_context(|| {
                 format!(
-                    "{name} is not a model of `robot-agent train` (a .safetensors weights file \
+                    "{name} is not a model of `ball-lab train` (a .safetensors weights file \
                      or a HOG + SVM .json filter); it may be truncated"
                 )
             })?;
@@ -270,7 +270,7 @@ fn load_model(path: &Path) -> Result<LoadedModel> {
 }
 
 /// The detector `kind`, tuned by `settings`, with the weights of `model` (a file of
-/// `robot-agent train`) in place of the shipped ones. The file is read once; one of another
+/// `ball-lab train`) in place of the shipped ones. The file is read once; one of another
 /// kind than the detector takes is refused with a sentence naming the file and the
 /// detector that runs it.
 pub fn choose_detector(

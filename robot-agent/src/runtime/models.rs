@@ -3,14 +3,14 @@
 //! detector and its model file are chosen in `detector_choice`.
 
 use crate::agent::PipelineConfig;
-use crate::calibration::calibrate::Calibration;
+use crate::calibration::Calibration;
 use crate::calibration::camera::CameraModel;
 use anyhow::{Context, Result};
 use std::path::Path;
 
 use crate::builtin::SIM_CALIBRATION_TOML;
 
-/// The left and right camera models: `left` from a file of `robot-agent calibrate` (or the
+/// The left and right camera models: `left` from a file of `ball-lab calibrate` (or the
 /// built-in calibration of the simulated camera), `right` from its own file or else the
 /// same as the left.
 pub fn load_models(left: Option<&Path>, right: Option<&Path>) -> Result<[CameraModel; 2]> {
@@ -26,7 +26,7 @@ pub fn load_models(left: Option<&Path>, right: Option<&Path>) -> Result<[CameraM
             ),
         };
         let c = Calibration::from_toml_str(&text)
-            .with_context(|| format!("{name} is not a calibration from `robot-agent calibrate`"))?;
+            .with_context(|| format!("{name} is not a calibration from `ball-lab calibrate`"))?;
         Ok(c.model)
     };
     let l = read(left)?;

@@ -31,7 +31,7 @@ pub struct RunArgs {
     /// names (none by default).
     #[arg(long, default_value = "")]
     pub ros_key_prefix: String,
-    /// Camera calibration from `robot-agent calibrate`: the left camera's, and the right
+    /// Camera calibration from `ball-lab calibrate`: the left camera's, and the right
     /// one's too unless `--calibration-right` is given. Default: the simulated MiRo's.
     #[arg(long)]
     pub calibration: Option<PathBuf>,

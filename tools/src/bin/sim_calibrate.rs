@@ -1,18 +1,18 @@
 //! `sim_calibrate`: a camera model fitted to chessboard views rendered through the
 //! simulator's MiRo camera (the images a person would take of a printed board in front of
-//! a simulated MiRo), written as `robot-agent calibrate` writes one from photographs.
+//! a simulated MiRo), written as `ball-lab calibrate` writes one from photographs.
 //! The shipped calibration of the simulated camera is
 //! `sim_calibrate --fisheye --fisheye-terms 2 --out robot-agent/data/sim-calibration.toml`.
 //!
 //! Flags: `--views N` (default 24), `--seed N` (default 1), `--save-images DIR`, and those
-//! of `robot-agent calibrate`: `--board COLSxROWS` (default 9x6, the simulator's board),
+//! of `ball-lab calibrate`: `--board COLSxROWS` (default 9x6, the simulator's board),
 //! `--square M` (default 0.025), `--fisheye`, `--fisheye-terms N` (default 4), `--out FILE`.
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
+use lab::cli::calibrate::{FitArgs, fit_and_write, parse_board};
 use robot_agent::GrayImage;
 use robot_agent::RgbImage;
-use robot_agent::cli::calibrate::{FitArgs, fit_and_write, parse_board};
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Parser)]

@@ -1,14 +1,14 @@
 //! `sim_frames`: frames rendered by the simulator's MiRo cameras from simulated matches,
 //! with the renderer's ball boxes as YOLO labels (class 0 `ball`, `obj.names` beside them),
-//! as training or test data for `robot-agent train` and `evaluate`. Frames where the ball
+//! as training or test data for `ball-lab train` and `evaluate`. Frames where the ball
 //! is only partly seen (cut by the image's edge or hidden by more than a tenth) are left
 //! out, as their label would be unfair; at most one frame in `--empty-every` without a
 //! ball is kept.
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use lab::labels::BallBox;
 use robot_agent::RgbImage;
-use robot_agent::labels::BallBox;
 use sim::{CameraRig, CameraWorld, CameraWorldConfig, LensModel, SimConfig, run_scenario};
 use std::path::PathBuf;
 use tools::progress::Progress;
@@ -100,8 +100,7 @@ fn run(args: Args) -> Result<()> {
                     let label: String = ball
                         .iter()
                         .map(|b| {
-                            robot_agent::labels::yolo::yolo_line(0, b, frame.width, frame.height)
-                                + "\n"
+                            lab::labels::yolo::yolo_line(0, b, frame.width, frame.height) + "\n"
                         })
                         .collect();
                     std::fs::write(dir.join(format!("{name}.txt")), label)?;

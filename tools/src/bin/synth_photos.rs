@@ -1,5 +1,5 @@
 //! `synth_photos`: a folder of randomised labelled photos of a ball (YOLO labels), for
-//! `robot-agent evaluate` and `robot-agent train`. The `train` profile is for training;
+//! `ball-lab evaluate` and `ball-lab train`. The `train` profile is for training;
 //! the `heldout` profile draws from ranges the classifier never saw (see
 //! `sim::photo_synth`). `--designs` restricts the ball designs, so a whole kind of ball can
 //! be held out: train on `--designs plain,patches,white-black-panels,modern,yellow`, test on

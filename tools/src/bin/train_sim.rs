@@ -1,19 +1,19 @@
 //! `train_sim`: the ball classifier trained on candidates mined from simulated matches
 //! (each labelled by the renderer's truth), alone or beside labelled photos, written as
-//! `robot-agent train` writes one. The shipped classifier is
+//! `ball-lab train` writes one. The shipped classifier is
 //! `train_sim --matches 6 --images out/photos/train/images --labels out/photos/train/labels
 //! --random-negatives 2 --out robot-agent/data/ball-classifier.json`.
 //!
 //! Flags: `--matches N` (default 6), `--seconds S` (default 30), `--seed N` (default 1: the
 //! mined matches, the split and the folds), `--out FILE`, and the labelled photos'
-//! flags of `robot-agent train`: `--images DIR --labels DIR` (with `--ball-class`,
-//! `--ball-name`, `--camera` or `--calibration` as `robot-agent evaluate` takes them) and
+//! flags of `ball-lab train`: `--images DIR --labels DIR` (with `--ball-class`,
+//! `--ball-name`, `--camera` or `--calibration` as `ball-lab evaluate` takes them) and
 //! `--random-negatives N` (default 8).
 
 use anyhow::Result;
 use clap::Parser;
-use robot_agent::cli::labelled::LabelledArgs;
-use robot_agent::cli::train::{fit_and_write, labelled_folder_patches};
+use lab::cli::labelled::LabelledArgs;
+use lab::cli::train::{fit_and_write, labelled_folder_patches};
 use robot_agent::load_models;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -25,7 +25,7 @@ use std::time::Instant;
 )]
 struct Args {
     /// Labelled photos beside the mined candidates (`--images DIR --labels DIR`, as
-    /// `robot-agent evaluate` takes them): each ball box is a positive, candidates and
+    /// `ball-lab evaluate` takes them): each ball box is a positive, candidates and
     /// random windows away from the balls are negatives.
     #[command(flatten)]
     labelled: LabelledArgs,

@@ -1,5 +1,5 @@
 //! `--labelled DIR`: the agent's detectors on a folder of labelled photos (any layout
-//! `robot-agent evaluate` reads: Pascal VOC or YOLO labels, events in subfolders), a row per
+//! `ball-lab evaluate` reads: Pascal VOC or YOLO labels, events in subfolders), a row per
 //! event (top-level subfolder) and detector, events named by `--hold-out` marked as held out
 //! from the ball network's training. Its generated section is marked
 //! `<!-- evaluate-labelled:begin -->` / `…:end -->`.
@@ -7,10 +7,10 @@
 use anyhow::{Context, Result};
 use eval::photo_eval::{stage_table_head, stage_table_note, stage_table_row};
 use eval::report;
+use lab::cli::evaluate::{EvaluateOptions, evaluate_items};
+use lab::cli::labelled::{Item, LabelledArgs, LabelledFolder};
+use lab::labels::eval::LabelReport;
 use robot_agent::DetectorKind;
-use robot_agent::cli::evaluate::{EvaluateOptions, evaluate_items};
-use robot_agent::cli::labelled::{Item, LabelledArgs, LabelledFolder};
-use robot_agent::labels::eval::LabelReport;
 use robot_agent::{Detector, DetectorConfig};
 use std::path::{Path, PathBuf};
 
