@@ -9,10 +9,10 @@
 //! The fit reports how many ball pixels and how many background pixels the window lets in.
 
 use thiserror::Error;
-use vision::hough::Circle;
-use vision::hsv::HsvThresholds;
-use vision::hsv::disc_hsv;
+use vision::Circle;
 use vision::image::RgbImage;
+use vision::settings::HsvThresholds;
+use vision::stages::colour::disc_hsv;
 
 /// Why no window can be fitted.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -65,7 +65,8 @@ impl ColourSamples {
                     if k % step == 0
                         && let Some([r, g, b]) = image.pixel(x, y)
                     {
-                        self.background.push(vision::hsv::rgb_to_hsv(r, g, b));
+                        self.background
+                            .push(vision::stages::colour::rgb_to_hsv(r, g, b));
                     }
                 }
             }
@@ -230,7 +231,7 @@ mod tests {
         let toml_text = f.to_toml();
         #[derive(serde::Deserialize)]
         struct Settings {
-            detector: vision::detect::DetectorConfig,
+            detector: vision::DetectorConfig,
         }
         let parsed: Settings = toml::from_str(&toml_text).unwrap();
         assert_eq!(parsed.detector.thresholds, t);

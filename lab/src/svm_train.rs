@@ -23,8 +23,8 @@ use serde::{Deserialize, Serialize};
 
 #[cfg(test)]
 use proto::rng::SplitMix64;
-pub use vision::svm::{Model, Platt, SvmError};
-use vision::svm::{Standardiser, dot};
+pub use vision::stages::svm::{Model, Platt, SvmError};
+use vision::stages::svm::{Standardiser, dot};
 
 /// Parameters of one SVM fit.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

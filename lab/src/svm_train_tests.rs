@@ -5,7 +5,7 @@
 
 use super::*;
 use proto::rng::SplitMix64;
-use vision::svm::MODEL_VERSION;
+use vision::stages::svm::MODEL_VERSION;
 
 /// XOR-like data: label = sign(x) == sign(y), points away from the axes, plus 3 noise
 /// dimensions.

@@ -83,6 +83,7 @@ fn train_fits_a_model_from_patch_folders() {
         String::from_utf8_lossy(&run.stderr)
     );
     assert!(stdout.contains("precision"), "{stdout}");
-    let m = vision::svm::Model::from_json(&std::fs::read_to_string(&model).unwrap()).unwrap();
-    assert_eq!(m.dim(), vision::hog::HOG_LEN);
+    let m =
+        vision::stages::svm::Model::from_json(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(m.dim(), vision::stages::hog::HOG_LEN);
 }

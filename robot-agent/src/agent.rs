@@ -5,11 +5,7 @@
 
 use crate::calibration::camera::CameraModel;
 use crate::camera_counters::CameraCounters;
-use crate::detection::detect::{
-    CandidateClassifier, DetectError, Detector, DetectorConfig, StageClock,
-};
-use crate::image::RgbImage;
-use crate::pipeline::{FrameContext, FrameResult, SharedBall, ValidationConfig, process_frame};
+use crate::pipeline::{Eye, FrameInput, FrameResult, SharedBall, ValidationConfig};
 use crate::projection::kinematics::camera_pose;
 use crate::projection::{ProjectionNoise, footprint};
 use crate::runtime::detector_choice::ChosenDetector;
@@ -19,6 +15,7 @@ use proto::{
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use vision::{DetectError, DetectorConfig, StageClock};
 
 /// Settings of the perception pipeline (the `[pipeline]` part of the agent's config file).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
@@ -27,18 +24,6 @@ pub struct PipelineConfig {
     pub detector: DetectorConfig,
     pub noise: ProjectionNoise,
     pub validation: ValidationConfig,
-}
-
-/// One captured camera frame with the robot's state at capture.
-#[derive(Debug, Clone, Copy)]
-pub struct FrameInput<'a> {
-    pub stamp: Stamp,
-    pub camera: Camera,
-    pub image: &'a RgbImage,
-    pub pose: Pose2,
-    /// Row-major 3×3 covariance of (x, y, θ).
-    pub pose_covariance: [f64; 9],
-    pub head: HeadJoints,
 }
 
 /// What one frame gave.
@@ -55,11 +40,8 @@ const FOOTPRINT_RANGE_M: f64 = 3.0;
 /// A robot's perception state.
 pub struct Agent {
     robot_id: String,
-    pitch: Pitch,
-    config: PipelineConfig,
     models: [CameraModel; 2],
-    detectors: [Detector; 2],
-    classifier: std::sync::Arc<dyn CandidateClassifier + Send + Sync>,
+    eyes: [Eye; 2],
     seq: u64,
     shared: Option<BallState>,
     frames: u64,
@@ -99,23 +81,21 @@ impl Agent {
     ) -> Self {
         let ChosenDetector {
             kind,
-            config: detector_config,
             detector,
             classifier,
             ..
         } = chosen;
-        let config = PipelineConfig {
-            detector: detector_config,
-            noise: kind.circle_noise(config.noise),
-            ..config
-        };
+        let eye = Eye::new(
+            detector,
+            classifier,
+            kind.circle_noise(config.noise),
+            config.validation,
+            pitch,
+        );
         Agent {
             robot_id: robot_id.to_string(),
-            pitch,
-            config,
             models,
-            detectors: [detector.clone(), detector],
-            classifier,
+            eyes: [eye.clone(), eye],
             seq: 0,
             shared: None,
             frames: 0,
@@ -163,7 +143,7 @@ impl Agent {
 
     /// The shared ball predicted to `stamp` (constant velocity; validation only needs a
     /// generous gate), or `None` when there is no usable one.
-    fn shared_at(&self, stamp: Stamp) -> Option<SharedBall> {
+    pub(crate) fn shared_at(&self, stamp: Stamp) -> Option<SharedBall> {
         let s = self.shared.as_ref()?;
         if s.status == BallStatus::Lost {
             return None;
@@ -180,64 +160,57 @@ impl Agent {
         })
     }
 
-    /// Runs the pipeline on one frame.
+    /// Runs the pipeline on one frame: the camera's [`Eye`], then [`Agent::account`].
     pub fn on_frame(
         &mut self,
         frame: &FrameInput<'_>,
         clock: &mut dyn StageClock,
     ) -> Result<FrameOutcome, DetectError> {
         let i = index(frame.camera);
-        let ctx = FrameContext {
-            camera: frame.camera,
-            model: &self.models[i],
-            pose: frame.pose,
-            pose_covariance: frame.pose_covariance,
-            head: frame.head,
-            pitch: &self.pitch,
-            shared: self.shared_at(frame.stamp),
-        };
-        let result = process_frame(
-            &self.detectors[i],
-            self.classifier.as_ref(),
-            &self.config.noise,
-            &self.config.validation,
-            frame.image,
-            &ctx,
-            clock,
-        )?;
+        let shared = self.shared_at(frame.stamp);
+        let result = self.eyes[i].look(frame, &self.models[i], shared, clock)?;
+        Ok(self.account(frame, result))
+    }
+
+    /// The camera's eye (a copy), to run on a thread of its own: [`Eye::look`] with
+    /// [`Agent::camera_model`] and [`Agent::shared_at`], then [`Agent::account`].
+    pub(crate) fn eye(&self, camera: Camera) -> Eye {
+        self.eyes[index(camera)].clone()
+    }
+
+    /// Counts what `frame` gave and makes its observation, numbered in the order frames
+    /// are accounted.
+    pub(crate) fn account(&mut self, frame: &FrameInput<'_>, result: FrameResult) -> FrameOutcome {
+        let i = index(frame.camera);
         self.frames += 1;
         for (_, why) in &result.rejected {
             *self.rejections.entry(why.reason()).or_default() += 1;
         }
         self.cameras[i].on_frame(frame.stamp, &result);
-        let observation = match &result.sighting {
-            Some(s) => {
-                self.detectors[i].adapt(frame.image, &s.circle)?;
-                let obs = Observation {
-                    version: proto::VERSION,
-                    robot_id: self.robot_id.clone(),
-                    seq: self.seq,
-                    camera: frame.camera,
-                    stamp: frame.stamp,
-                    position_m: s.floor.position_m,
-                    covariance_m2: s.floor.covariance_m2,
-                    confidence: s.confidence.clamp(0.0, 1.0),
-                    robot_pose: frame.pose,
-                    pixel: Some(PixelBall {
-                        u_px: s.circle.center_px[0],
-                        v_px: s.circle.center_px[1],
-                        radius_px: s.circle.radius_px,
-                    }),
-                };
-                self.seq += 1;
-                Some(obs)
-            }
-            None => None,
-        };
-        Ok(FrameOutcome {
+        let observation = result.sighting.as_ref().map(|s| {
+            let obs = Observation {
+                version: proto::VERSION,
+                robot_id: self.robot_id.clone(),
+                seq: self.seq,
+                camera: frame.camera,
+                stamp: frame.stamp,
+                position_m: s.floor.position_m,
+                covariance_m2: s.floor.covariance_m2,
+                confidence: s.confidence.clamp(0.0, 1.0),
+                robot_pose: frame.pose,
+                pixel: Some(PixelBall {
+                    u_px: s.circle.center_px[0],
+                    v_px: s.circle.center_px[1],
+                    radius_px: s.circle.radius_px,
+                }),
+            };
+            self.seq += 1;
+            obs
+        });
+        FrameOutcome {
             observation,
             result,
-        })
+        }
     }
 
     /// The pipeline's time on `camera`'s last frame (the shell measures it), for the
@@ -295,9 +268,9 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
-    use crate::detection::detect::{HoughOnly, NoClock};
     use crate::test_fixtures::{head as head_yawed, miro_lens as lens};
     use proto::Validate;
+    use vision::{HoughOnly, NoClock, RgbImage};
 
     fn head() -> HeadJoints {
         head_yawed(0.0)

@@ -129,8 +129,8 @@ mod tests {
     #![allow(clippy::unwrap_used)]
 
     use super::*;
-    use crate::detection::hough::Circle;
     use crate::pipeline::Rejection;
+    use vision::Circle;
 
     const S: u64 = 1_000_000_000;
 

@@ -7,19 +7,17 @@
 //! perceive loop and Zenoh ([`run_agent`]); the `robot-agent` binary is a thin command
 //! line over it ([`cli::main`]).
 //!
-//! This root is the crate's front door; behind it, private modules, one per concern:
-//! calibration (chessboards, [`calibrate_with`]), detection (the `vision` crate's stages,
-//! one frame to ball candidates: [`Detector`], the classifiers [`BallNet`] and
-//! [`SvmModel`], re-exported here), training (the learned stages' training, apart from
-//! what the robot runs), projection (pixel to floor point with its covariance, and the MiRo's
-//! kinematics), the image buffers ([`RgbImage`], [`GrayImage`]), the pipeline of one frame
-//! and the [`Agent`] between frames (with each camera's perception counters), a camera's
-//! view for people watching ([`camera_view`]), image files and ROS messages ([`ros_msg`]),
-//! and the runtime's frame sources ([`FrameSource`], [`McapSource`]). Three public modules are
-//! APIs of their own: [`builtin`] (the shipped calibration and ball classifier),
-//! [`labels`] (Pascal VOC and YOLO labels and the detector scored against them) and
-//! [`cli`] (the command line, and the flag groups and steps the simulator-driven tools
-//! share with it).
+//! This root is the crate's front door; behind it, private modules, one per concern: the
+//! calibration file ([`Calibration`]), projection (pixel to floor point with its
+//! covariance, and the MiRo's kinematics), the pipeline of one frame and the [`Agent`]
+//! between frames (with each camera's perception counters), a camera's view for people
+//! watching ([`camera_view`]), image files and ROS messages ([`ros_msg`]), and the
+//! runtime's frame sources ([`FrameSource`], [`McapSource`]). The detector is the `vision`
+//! crate's ([`Detector`] and the classifiers [`BallNet`] and [`SvmModel`] are re-exported
+//! here for the agent's users); training, labels and calibration from chessboards are the
+//! `lab` crate's, which the robot's program does not link. Two public modules are APIs of
+//! their own: [`builtin`] (the shipped calibration and ball classifier) and [`cli`] (the
+//! command line).
 //!
 //! ```
 //! use robot_agent::{Detector, DetectorConfig, NoClock, RgbImage};
@@ -48,8 +46,6 @@ pub mod builtin;
 mod calibration;
 mod camera_counters;
 pub mod cli;
-use vision as detection;
-use vision::image;
 mod io;
 mod pipeline;
 mod projection;
@@ -58,20 +54,9 @@ mod runtime;
 mod test_fixtures;
 mod view;
 
-pub use agent::{Agent, FrameInput, PipelineConfig};
+pub use agent::{Agent, PipelineConfig};
 pub use calibration::camera::CameraModel;
 pub use calibration::{Calibration, CalibrationError, ViewResult};
-pub use detection::ballnet::BallNet;
-pub use detection::checker::Checker;
-pub use detection::detect::{CandidateClassifier, Detector, DetectorConfig, NoClock, StageClock};
-pub use detection::heatnet::{HeatNet, PeakConfig};
-pub use detection::hog::HOG_LEN;
-pub use detection::hough::Circle;
-pub use detection::patch::{Patch, PatchConfig, extract as extract_patch};
-pub use detection::photo::{PhotoCandidate, PhotoRejection, detect_photo};
-pub use detection::svm::Model as SvmModel;
-pub use image::RgbImage;
-pub use image::gray::GrayImage;
 pub use io::image_io::{
     ImageIoError, decode_gray, decode_rgb, encode_png, image_files, image_files_recursive,
     load_gray, load_rgb,
@@ -79,7 +64,7 @@ pub use io::image_io::{
 pub use io::ros_msg;
 #[cfg(any(test, feature = "test-support"))]
 pub use io::ros_msg_fixtures;
-pub use pipeline::{FrameResult, ScoredCandidate, ValidationConfig};
+pub use pipeline::{FrameInput, FrameResult, ScoredCandidate, ValidationConfig};
 pub use runtime::detector_choice::{ChosenDetector, DetectorArgs, DetectorKind, choose_detector};
 pub use runtime::frame::{RobotState, StoredFrame};
 pub use runtime::models::{load_config, load_models};
@@ -90,3 +75,14 @@ pub use runtime::{
     FrameHook, FrameReport, RunArgs, Source, Summary as RunSummary, run as run_agent, wall_now,
 };
 pub use view::{VIEW_JPEG_TARGET_BYTES, ViewError, camera_view};
+pub use vision::Circle;
+pub use vision::GrayImage;
+pub use vision::RgbImage;
+pub use vision::photo::{PhotoCandidate, PhotoRejection, detect_photo};
+pub use vision::stages::ballnet::BallNet;
+pub use vision::stages::candidates::{HeatNet, PeakConfig};
+pub use vision::stages::checker::Checker;
+pub use vision::stages::hog::HOG_LEN;
+pub use vision::stages::patch::{Patch, PatchConfig, extract as extract_patch};
+pub use vision::stages::svm::Model as SvmModel;
+pub use vision::{CandidateClassifier, Detector, DetectorConfig, NoClock, StageClock};

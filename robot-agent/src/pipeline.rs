@@ -19,15 +19,16 @@
 //! proposed it, for the camera's view.
 
 use crate::calibration::camera::CameraModel;
-use crate::detection::detect::{Candidate, CandidateClassifier, DetectError, Detector, StageClock};
-use crate::detection::hough::Circle;
-use crate::image::RgbImage;
 use crate::projection::{
     FloorPoint, ImageBall, ProjectionError, ProjectionNoise, angular_radius_from_image_radius,
     project_ball,
 };
-use proto::{Camera, CandidateOutcome, CandidateStage, HeadJoints, Pitch, Pose2};
+use proto::{Camera, CandidateOutcome, CandidateStage, HeadJoints, Pitch, Pose2, Stamp};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use vision::Circle;
+use vision::image::RgbImage;
+use vision::{Candidate, CandidateClassifier, DetectError, Detector, StageClock};
 
 /// Settings of projection and world validation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -142,6 +143,87 @@ pub struct FrameResult {
     pub scored: Vec<(Circle, f64)>,
     /// The same candidates with their stage and fate, most probable first.
     pub candidates: Vec<ScoredCandidate>,
+}
+
+/// One captured camera frame with the robot's state at capture.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameInput<'a> {
+    pub stamp: Stamp,
+    pub camera: Camera,
+    pub image: &'a RgbImage,
+    pub pose: Pose2,
+    /// Row-major 3×3 covariance of (x, y, θ).
+    pub pose_covariance: [f64; 9],
+    pub head: HeadJoints,
+}
+
+/// One camera's pipeline: its detector (whose colour window adapts to that camera's
+/// light), the candidate classifier and the checks after projection. The agent holds one
+/// per camera; the perceive loop runs each on its camera's own thread.
+#[derive(Clone)]
+pub(crate) struct Eye {
+    detector: Detector,
+    classifier: Arc<dyn CandidateClassifier + Send + Sync>,
+    noise: ProjectionNoise,
+    validation: ValidationConfig,
+    pitch: Pitch,
+}
+
+impl std::fmt::Debug for Eye {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Eye").finish_non_exhaustive()
+    }
+}
+
+impl Eye {
+    pub(crate) fn new(
+        detector: Detector,
+        classifier: Arc<dyn CandidateClassifier + Send + Sync>,
+        noise: ProjectionNoise,
+        validation: ValidationConfig,
+        pitch: Pitch,
+    ) -> Eye {
+        Eye {
+            detector,
+            classifier,
+            noise,
+            validation,
+            pitch,
+        }
+    }
+
+    /// Detection, projection and validation of one frame seen through `model`, with the
+    /// team's ball at its capture (`shared`); the colour window adapts to a sighting.
+    pub(crate) fn look(
+        &mut self,
+        frame: &FrameInput<'_>,
+        model: &CameraModel,
+        shared: Option<SharedBall>,
+        clock: &mut dyn StageClock,
+    ) -> Result<FrameResult, DetectError> {
+        let ctx = FrameContext {
+            camera: frame.camera,
+            model,
+            pose: frame.pose,
+            pose_covariance: frame.pose_covariance,
+            head: frame.head,
+            pitch: &self.pitch,
+            shared,
+        };
+        let result = process_frame(
+            &self.detector,
+            self.classifier.as_ref(),
+            &self.noise,
+            &self.validation,
+            frame.image,
+            &ctx,
+            clock,
+        )?;
+        if let Some(s) = &result.sighting {
+            self.detector.adapt(frame.image, &s.circle)?;
+        }
+        Ok(result)
+    }
 }
 
 /// Detection, projection and validation of one camera frame.

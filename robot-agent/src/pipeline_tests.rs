@@ -3,10 +3,10 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::detection::detect::{DetectorConfig, HoughOnly, NoClock};
 use crate::projection::kinematics::camera_pose;
 use crate::test_fixtures::{head as head_yawed, miro_lens as lens};
 use nalgebra::Vector3;
+use vision::{DetectorConfig, HoughOnly, NoClock};
 
 fn head() -> HeadJoints {
     head_yawed(0.0)

@@ -16,9 +16,11 @@
 //! - [`models`]: calibrations and pipeline settings from files.
 //! - [`detector_choice`]: the one place the detector and its model file are chosen.
 //! - [`timer`]: per-stage timings for the status.
+//! - `eyes`: each camera's detector on a thread of its own, results taken back in order.
 //! - `views`: the camera views' pacing and their encoder thread.
 
 pub mod detector_choice;
+mod eyes;
 pub mod frame;
 pub mod frames_io;
 pub mod live_ros;

@@ -1,6 +1,6 @@
 //! Test fixtures of the agent's own tests; the vision stages' are the vision crate's.
 
-pub use crate::detection::test_fixtures::miro_lens;
+pub use vision::test_fixtures::miro_lens;
 
 /// The head pose robots hold when not scanning, turned `yaw_rad` to the left.
 pub fn head(yaw_rad: f64) -> proto::HeadJoints {

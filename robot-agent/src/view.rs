@@ -8,13 +8,13 @@
 //! the size is halved and the qualities tried again. Pure: the caller passes the stamp,
 //! the sequence number and the pipeline's time.
 
-use crate::image::{ImageError, RgbImage};
 use crate::pipeline::{FrameResult, ScoredCandidate};
 use proto::{
     Camera, CameraView, CandidateOutcome, MAX_VIEW_CANDIDATES, MAX_VIEW_SIDE_PX, Pitch, Stamp,
     Validate, ValidationContext, ValidationError, ViewCandidate,
 };
 use thiserror::Error;
+use vision::image::{ImageError, RgbImage};
 
 /// The size a view's JPEG is brought under, bytes (the wire allows
 /// [`proto::MAX_VIEW_JPEG_BYTES`]).

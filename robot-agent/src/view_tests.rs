@@ -3,8 +3,8 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::detection::hough::Circle;
 use proto::{CandidateStage, MAX_VIEW_JPEG_BYTES, MAX_VIEW_PAYLOAD_BYTES};
+use vision::Circle;
 
 /// A carpet-like frame with a soft gradient, a texture and an orange ball at `ball` (frame
 /// pixels) of `radius` px.

@@ -3,9 +3,27 @@
 //! one batch, the most probable first, a candidate on a more probable one's ball marked a
 //! repeat. The choice of the frame's ball comes after projection
 //! (the agent's pipeline), or for a photo on its own in [`crate::photo`].
+//!
+//! - `patch`: the 32×32 candidate patch around a circle, with mirroring and rotation.
+//! - `hog`: the histogram-of-oriented-gradients descriptor of a patch (288 features).
+//! - `svm`: the RBF-kernel SVM candidate filter: its model file and Platt-calibrated
+//!   probability (its training is the `lab` crate's).
+//! - `classifier`: the colour check and the HOG + SVM filter as one candidate classifier,
+//!   and the ball network's.
+//! - `ballnet`: the ball network, a small CNN on a candidate's colour patch giving the
+//!   ball's probability and its refined centre and radius.
+//! - `checker`: the grey checker, a network on a candidate's brightness-normalised grey
+//!   patch, a batch at a time.
 
+pub(crate) mod ballnet;
+pub(crate) mod checker;
+pub(crate) mod classifier;
+pub(crate) mod hog;
+pub(crate) mod patch;
+pub(crate) mod svm;
+
+use crate::circle::Circle;
 use crate::detect::Proposals;
-use crate::hough::Circle;
 use crate::image::RgbImage;
 use proto::CandidateStage;
 

@@ -11,18 +11,18 @@
 //!    camera (so that a ball is round even at the edge of the fisheye), a closing smooths
 //!    its mask, then the circular Hough transform finds circles. A blob sparse in its box
 //!    may be a patterned ball: its two-colour mask, where the patches join the ball's
-//!    colour and enclosed holes are filled ([`crate::two_colour`]), is searched as well.
+//!    colour and enclosed holes are filled ([`crate::colour::two_colour`]), is searched as well.
 //! 5. `classify`: each circle goes through the caller's [`CandidateClassifier`] (the HOG +
 //!    SVM filter and the dominant-colour check in the agent) on the same local view, which
 //!    gives the probability that it is the ball.
 //!
-//! Stages 1 to 4 are the colour path's own module (`detect/colour.rs`); stage 5 is
+//! Stages 1 to 4 are the colour path's own folder (`colour/`, its proposals in `colour/propose.rs`); stage 5 is
 //! [`crate::check`]. This module is the detector's front: its state (the
 //! lighting-adapted colour window, the candidate network), the proposals of every kind in
 //! order, then the check, each once per frame.
 //!
 //! With `proposer = "net"` the colour stages give way to stage `candidates`: the candidate
-//! network's heatmap peaks ([`crate::heatnet`]), then the strongest appearance
+//! network's heatmap peaks ([`crate::candidates`]), then the strongest appearance
 //! proposals that do not repeat them (stage `appearance`), and in the agent the tracked
 //! ball's predicted place ([`Detector::detect_with_hint`]); a batching classifier (the grey
 //! checker) judges each view's proposals at once.
@@ -31,21 +31,22 @@
 //! (see the agent's pipeline).
 
 use crate::camera::CameraModel;
+use crate::candidates::HeatNet;
 #[cfg(any(test, feature = "test-support"))]
 pub use crate::check::HoughOnly;
 pub use crate::check::{Candidate, CandidateClassifier, judge};
-pub use crate::detect_config::{ClassifierKind, DetectorConfig, Proposer};
-use crate::heatnet::HeatNet;
-use crate::hough::{Circle, HoughError};
-use crate::hsv::{HsvError, HsvThresholds, MaskLut, disc_hsv};
+use crate::circle::Circle;
+use crate::colour::hough::HoughError;
+use crate::colour::hsv::{HsvError, HsvThresholds, MaskLut, disc_hsv};
+use crate::colour::kmeans::ColourError;
+use crate::colour::seeded_mask::SeededLut;
+use crate::colour::two_colour::PatternError;
+pub use crate::detect::config::{ClassifierKind, DetectorConfig, Proposer};
 use crate::image::{ImageError, RgbImage};
-use crate::kmeans::ColourError;
-use crate::seeded_mask::SeededLut;
-use crate::two_colour::PatternError;
 use proto::CandidateStage;
 use thiserror::Error;
 
-mod colour;
+mod config;
 
 /// Why the detector could not be built or run.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -61,7 +62,7 @@ pub enum DetectError {
     #[error(transparent)]
     Colour(#[from] ColourError),
     #[error(transparent)]
-    Appearance(#[from] crate::contrast::AppearanceError),
+    Appearance(#[from] crate::appearance::AppearanceError),
     #[error("adapt_rate {0} is outside [0, 1]")]
     BadRate(f64),
     #[error("the candidate network: {0}")]
@@ -127,13 +128,14 @@ impl Proposals {
 /// The image half of the ball detector, with its lighting-adapted colour window.
 #[derive(Debug, Clone)]
 pub struct Detector {
-    config: DetectorConfig,
+    pub(crate) config: DetectorConfig,
     thresholds: HsvThresholds,
-    lut: MaskLut,
+    /// The colour window's mask (the colour path's proposals read these three).
+    pub(crate) lut: MaskLut,
     /// The window grown into the limits, when `config.seeded`.
-    seeded: SeededLut,
+    pub(crate) seeded: SeededLut,
     /// The patches' colour, when patterned balls are looked for.
-    white_lut: Option<MaskLut>,
+    pub(crate) white_lut: Option<MaskLut>,
     /// The candidate network, when the proposer uses it.
     heat: Option<std::sync::Arc<HeatNet>>,
 }
@@ -165,7 +167,7 @@ impl Detector {
         let heat = match net {
             Some(n) => Some(std::sync::Arc::new(n)),
             None if config.proposer.net() => Some(std::sync::Arc::new(HeatNet::from_safetensors(
-                crate::heatnet::SHIPPED_WEIGHTS,
+                crate::candidates::SHIPPED_WEIGHTS,
             )?)),
             None => None,
         };
@@ -200,7 +202,7 @@ impl Detector {
     /// The circles of a frame before classification.
     ///
     /// With the camera's calibrated `model`, each blob is searched in its own local
-    /// perspective view ([`crate::rectify::LocalView`]), where a ball is round even at the edge of a
+    /// perspective view ([`crate::camera::rectify::LocalView`]), where a ball is round even at the edge of a
     /// fisheye image; proposals then carry that view and their angular radius. Without a
     /// model the frame is searched as it is.
     ///
@@ -230,12 +232,12 @@ impl Detector {
         // is the frame halved (their first level).
         let mut half: Option<(Vec<f32>, usize, usize)> = None;
         if let Some(net) = self.candidate_net() {
-            let g = crate::heatnet::InputGeometry::for_frame_at(
+            let g = crate::candidates::InputGeometry::for_frame_at(
                 image.width(),
                 image.height(),
                 self.config.candidates.input_width_px,
             );
-            let shrunk = crate::heatnet::shrink(image, &g);
+            let shrunk = crate::candidates::shrink(image, &g);
             for circle in net.candidates_from_shrunk(&shrunk, g, &self.config.candidates) {
                 proposals
                     .items
@@ -252,9 +254,9 @@ impl Detector {
         if self.config.proposer.appearance() && !net_only {
             let mut found = match &half {
                 Some((data, w, h)) => {
-                    crate::contrast::propose_from_half(data, *w, *h, &self.config.appearance)
+                    crate::appearance::propose_from_half(data, *w, *h, &self.config.appearance)
                 }
-                None => crate::contrast::propose(image, &self.config.appearance),
+                None => crate::appearance::propose(image, &self.config.appearance),
             };
             if self.config.proposer.net() {
                 found.retain(|c| !proposals.items.iter().any(|p| same_place(&p.frame, c)));
@@ -330,7 +332,7 @@ impl Detector {
             let limits = self.config.limits;
             samples.retain(|&(h, s, v)| limits.contains(h, s, v));
         }
-        let mut next = crate::hsv::adapt(
+        let mut next = crate::colour::hsv::adapt(
             &self.thresholds,
             &samples,
             self.config.adapt_rate,

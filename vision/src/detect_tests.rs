@@ -3,9 +3,9 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::hough::HoughConfig;
-use crate::kmeans::ColourCheckConfig;
-use crate::two_colour::PatternConfig;
+use crate::colour::hough::HoughConfig;
+use crate::colour::kmeans::ColourCheckConfig;
+use crate::colour::two_colour::PatternConfig;
 
 const W: u32 = 320;
 const H: u32 = 180;

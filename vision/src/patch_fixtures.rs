@@ -8,8 +8,8 @@
 
 #![allow(clippy::unwrap_used)]
 
+use crate::check::patch::{Patch, PatchConfig, extract};
 use crate::image::RgbImage;
-use crate::patch::{Patch, PatchConfig, extract};
 use proto::rng::SplitMix64;
 
 /// Side of the painted frame, pixels.

@@ -12,8 +12,8 @@
 //! searched as it is, which is right for an ordinary, nearly distortion-free camera.
 
 use crate::camera::CameraModel;
+use crate::circle::Circle;
 use crate::detect::{CandidateClassifier, DetectError, Detector, StageClock, judge};
-use crate::hough::Circle;
 use crate::image::RgbImage;
 use thiserror::Error;
 

@@ -48,8 +48,8 @@ pub fn miro_lens() -> crate::camera::CameraModel {
 }
 
 /// An orange ball's colour window.
-pub fn orange() -> crate::hsv::HsvThresholds {
-    crate::hsv::HsvThresholds {
+pub fn orange() -> crate::colour::hsv::HsvThresholds {
+    crate::colour::hsv::HsvThresholds {
         hue_lo_deg: 15.0,
         hue_hi_deg: 45.0,
         sat_min: 0.5,

@@ -16,8 +16,8 @@ use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use vision::detect::{CandidateClassifier, Detector, NoClock};
 use vision::photo::{PhotoCandidate, detect_photo, overlay};
+use vision::{CandidateClassifier, Detector, NoClock};
 
 #[derive(Debug, clap::Args)]
 pub struct DetectArgs {
@@ -270,7 +270,7 @@ impl LabelWriter {
             .iter()
             .filter(|c| c.published)
             .filter_map(|c| {
-                let circle = vision::hough::Circle {
+                let circle = vision::Circle {
                     center_px: [c.u_px, c.v_px],
                     radius_px: c.radius_px,
                     score: 1.0,

@@ -17,10 +17,10 @@ use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use proto::rng::Rng;
 use std::collections::BTreeMap;
-use vision::checker::{self, Checker};
-use vision::detect::{Detector, DetectorConfig, Proposer};
-use vision::heatnet::{HeatNet, PeakConfig};
 use vision::image::RgbImage;
+use vision::stages::candidates::{HeatNet, PeakConfig};
+use vision::stages::checker::{self, Checker};
+use vision::{Detector, DetectorConfig, Proposer};
 
 /// The labelled photos of `items`, decoded, with their ball boxes, and how many boxes of
 /// other classes their labels held; a photo that cannot be read is reported and left out.
@@ -162,14 +162,8 @@ fn mined_negatives(
     let bar = bar(photos.len(), "mining false positives");
     let mut out = Vec::new();
     for (image, balls) in photos {
-        let candidates = vision::photo::detect_photo(
-            detector,
-            checker,
-            0.5,
-            image,
-            None,
-            &mut vision::detect::NoClock,
-        )?;
+        let candidates =
+            vision::photo::detect_photo(detector, checker, 0.5, image, None, &mut vision::NoClock)?;
         for c in candidates {
             let accepted = c.probability.is_some_and(|p| p >= 0.5);
             if accepted
@@ -246,7 +240,7 @@ pub fn train_detector(
         copy_log_scale: 0.6,
         copies_per_ball: how.copies,
         random_per_photo: how.random_negatives,
-        appearance: vision::contrast::AppearanceConfig {
+        appearance: vision::settings::AppearanceConfig {
             max_candidates: 8,
             ..Default::default()
         },
@@ -326,7 +320,7 @@ pub fn train_detector(
 pub fn net_detector(base: &DetectorConfig, net: Option<HeatNet>) -> Result<Detector> {
     let config = DetectorConfig {
         proposer: Proposer::Net,
-        classifier: vision::detect::ClassifierKind::Checker,
+        classifier: vision::ClassifierKind::Checker,
         ..*base
     };
     match net {

@@ -8,8 +8,8 @@ use crate::labels::eval::{LabelEval, LabelReport, TimingMs};
 use anyhow::Result;
 use std::collections::BTreeMap;
 use std::time::Instant;
-use vision::detect::{CandidateClassifier, Detector, NoClock};
 use vision::photo::detect_photo;
+use vision::{CandidateClassifier, Detector, NoClock};
 
 /// How photos are scored and reported.
 #[derive(Debug, Clone, Copy)]

@@ -8,8 +8,8 @@ use crate::cli::labelled::LabelledFolder;
 use crate::labels::BallBox;
 use anyhow::Result;
 use proto::rng::Rng;
-use vision::detect::NoClock;
-use vision::patch::{Patch, PatchConfig, extract};
+use vision::NoClock;
+use vision::stages::patch::{Patch, PatchConfig, extract};
 
 /// Smallest radius of a random negative window, pixels (the detector's smallest circle).
 const MIN_RANDOM_RADIUS_PX: f64 = 4.0;

@@ -12,8 +12,8 @@ use crate::training::ballnet_train::{NetTrainConfig, Progress, TrainedNet, train
 use anyhow::{Context, Result};
 use proto::rng::Rng;
 use std::collections::BTreeMap;
-use vision::classifier::NetClassifier;
-use vision::detect::{Detector, DetectorConfig};
+use vision::stages::classifier::NetClassifier;
+use vision::{Detector, DetectorConfig};
 
 /// Whether an item's folder is one of the held-out folders (a folder and everything
 /// under it).
@@ -38,7 +38,7 @@ pub fn collect_samples(
     // three times the detector's 8): its hard negatives (ceiling lights, white robot
     // parts) are what the network must learn.
     let heat = robot_agent::builtin::candidate_net().context("the shipped candidate network")?;
-    let peaks = vision::heatnet::PeakConfig {
+    let peaks = vision::settings::PeakConfig {
         max_candidates: 24,
         ..DetectorConfig::default().candidates
     };
@@ -84,8 +84,8 @@ pub fn collect_samples(
 }
 
 /// The circle inscribed in a box.
-pub fn box_circle(b: &crate::labels::BallBox) -> vision::hough::Circle {
-    vision::hough::Circle {
+pub fn box_circle(b: &crate::labels::BallBox) -> vision::Circle {
+    vision::Circle {
         center_px: b.centre_px(),
         radius_px: 0.25 * (b.width_px() + b.height_px()),
         score: 1.0,

@@ -351,7 +351,7 @@ pub fn settle_folder(
     images: &Path,
     labels: &mut FolderLabels,
     how: &Agreement,
-    judge: impl Fn(&RgbImage, &vision::hough::Circle) -> Option<f64>,
+    judge: impl Fn(&RgbImage, &vision::Circle) -> Option<f64>,
 ) -> Settled {
     let mut total = Settled::default();
     let bar = bar(

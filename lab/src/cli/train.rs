@@ -7,7 +7,7 @@ use crate::cli::labelled::{LabelledArgs, LabelledFolder};
 use crate::training::hog_svm::{TrainConfig, train};
 use anyhow::{Context, Result};
 use std::path::Path;
-use vision::patch::{Patch, PatchConfig, extract};
+use vision::stages::patch::{Patch, PatchConfig, extract};
 
 /// Every image of a folder as a patch: the whole image is the candidate window.
 pub fn folder_patches(dir: &Path) -> Result<Vec<Patch>> {

@@ -323,7 +323,7 @@ impl Split {
     fn settle(
         &mut self,
         args: &TrainArgs,
-        judge: impl Fn(&vision::image::RgbImage, &vision::hough::Circle) -> Option<f64>,
+        judge: impl Fn(&vision::image::RgbImage, &vision::Circle) -> Option<f64>,
     ) -> Result<()> {
         let Some(taught) = self.taught.as_mut() else {
             return Ok(());
@@ -773,7 +773,7 @@ fn run_detector(args: TrainArgs) -> Result<()> {
 }
 
 /// The student's weights file and its judge of a circle in a photo.
-type Student = (Vec<u8>, Box<dyn vision::detect::CandidateClassifier>);
+type Student = (Vec<u8>, Box<dyn vision::CandidateClassifier>);
 
 /// `train` once, or with the teacher's labels, `--student-rounds` times before the last:
 /// each round's model (`student` of its output) is written beside `--out`
@@ -835,7 +835,7 @@ fn run_net(args: TrainArgs) -> Result<()> {
     let mut split = Split::open(&args)?;
     let started = Instant::now();
     let out = with_student_rounds(&args, &mut split, train_net, |out| {
-        let net = vision::classifier::NetClassifier::new(out.trained.net.clone());
+        let net = vision::stages::classifier::NetClassifier::new(out.trained.net.clone());
         (out.trained.file.clone(), Box::new(net))
     })?;
     let mut file = out.trained.file.clone();

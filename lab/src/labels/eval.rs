@@ -33,7 +33,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::labels::BallBox;
-use vision::hough::Circle;
+use vision::Circle;
 
 /// Size bands of a ball's box width, pixels: `[lower, upper)`.
 pub const SIZE_BANDS_PX: [(f64, f64); 4] = [

@@ -5,7 +5,7 @@
 use crate::labels::BallBox;
 use crate::labels::voc::write_voc;
 use crate::labels::yolo::yolo_line;
-use vision::hough::Circle;
+use vision::Circle;
 
 /// The label formats the detector writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

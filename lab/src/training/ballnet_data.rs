@@ -1,9 +1,9 @@
 //! Training samples for the ball network, cut from labelled photos, and their augmentation.
 //!
 //! A photo gives three kinds of sample, all cut the way the detector cuts them
-//! ([`vision::ballnet::patch_for`]):
+//! ([`vision::stages::ballnet::patch_for`]):
 //!
-//! - the appearance proposals ([`vision::contrast::propose`]): one that lands on a
+//! - the appearance proposals ([`vision::stages::appearance::propose`]): one that lands on a
 //!   labelled ball (centre within half the ball's radius, radius within a factor of two) is
 //!   a ball with the correction from its circle to the label's as the target; one clear of
 //!   every ball is not a ball; one in between (on a ball's edge) is left out, as it is
@@ -19,10 +19,10 @@
 
 use crate::labels::BallBox;
 use proto::rng::Rng;
-use vision::contrast::{AppearanceConfig, propose};
-use vision::hough::Circle;
+use vision::Circle;
 use vision::image::RgbImage;
-use vision::patch::{PATCH_SIDE_PX, RgbPatch};
+use vision::stages::appearance::{AppearanceConfig, propose};
+use vision::stages::patch::{PATCH_SIDE_PX, RgbPatch};
 
 /// One training sample: a patch, whether it is a ball and, for a ball, the correction
 /// from the patch's circle to the ball's (centre offset over the radius, log of the radius
@@ -69,7 +69,7 @@ impl Default for SampleConfig {
             random_per_photo: 4,
             copy_offset: 0.35,
             copy_log_scale: 0.45,
-            window_over_radius: vision::ballnet::WINDOW_OVER_RADIUS,
+            window_over_radius: vision::stages::ballnet::WINDOW_OVER_RADIUS,
             on_ball_offset: 0.5,
             on_ball_ratio: 2.0,
         }
@@ -149,11 +149,11 @@ pub fn photo_samples(
     cfg: &SampleConfig,
     rng: &mut Rng,
 ) -> (Vec<Sample>, SampleCounts) {
-    let patch_cfg = vision::patch::PatchConfig {
+    let patch_cfg = vision::settings::PatchConfig {
         window_over_radius: cfg.window_over_radius,
     };
     let patch_for = |image: &RgbImage, c: &Circle| {
-        vision::patch::extract_rgb(image, c.center_px, c.radius_px, &patch_cfg).ok()
+        vision::stages::patch::extract_rgb(image, c.center_px, c.radius_px, &patch_cfg).ok()
     };
     let mut out = Vec::new();
     let mut counts = SampleCounts {

@@ -1,6 +1,6 @@
 //! Training the ball network on a CPU with candle, and writing its weights file.
 //!
-//! The network is [`vision::ballnet`]'s: three 3×3 stride-2 convolutions with
+//! The network is [`vision::stages::ballnet`]'s: three 3×3 stride-2 convolutions with
 //! ReLU, a hidden layer of [`HIDDEN`] and four outputs (the ball's logit, its centre offset
 //! over the radius, the log of its radius ratio). The loss is the logistic loss of the
 //! logit plus the squared error of the correction on balls only. AdamW with a cosine
@@ -17,9 +17,11 @@ use candle_nn::{Conv2d, Conv2dConfig, Linear, Module, Optimizer, VarBuilder, Var
 use proto::rng::Rng;
 use std::collections::BTreeMap;
 use thiserror::Error;
-use vision::ballnet::FLAT;
-use vision::ballnet::{BallNet, BallNetError, CONVOLUTIONS, FORMAT, HIDDEN, OUTPUTS, input};
-use vision::patch::PATCH_SIDE_PX;
+use vision::stages::ballnet::FLAT;
+use vision::stages::ballnet::{
+    BallNet, BallNetError, CONVOLUTIONS, FORMAT, HIDDEN, OUTPUTS, input,
+};
+use vision::stages::patch::PATCH_SIDE_PX;
 
 /// The training's settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -361,7 +363,7 @@ fn reinitialise(varmap: &VarMap, seed: u64) -> Result<(), NetTrainError> {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
-    use vision::patch::RgbPatch;
+    use vision::stages::patch::RgbPatch;
 
     /// A disc of a colour on a floor of another, or stripes: a task a small net learns in
     /// a few epochs.

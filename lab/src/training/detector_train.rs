@@ -1,6 +1,6 @@
 //! Training the two-stage detector's networks on a CPU with candle, and their weights file.
 //!
-//! - The candidate network ([`vision::heatnet`]) learns from whole labelled
+//! - The candidate network ([`vision::stages::candidates`]) learns from whole labelled
 //!   photos: each step takes random crops of photos shrunk at a random scale about the
 //!   detector's own, flipped, their colours turned (any hue, swapped channels or grey),
 //!   their brightness, contrast and noise changed. A cell holding a ball's centre is a
@@ -9,7 +9,7 @@
 //!   focal loss of the logits (γ = 2) over the number of balls, plus the squared error of
 //!   the centre and radius learned on the ball's cell and the eight around it (so that
 //!   whichever of them peaks points at the ball).
-//! - The grey checker ([`vision::checker`]) learns from patches
+//! - The grey checker ([`vision::stages::checker`]) learns from patches
 //!   ([`crate::training::ballnet_data`]): candidates on and off the balls, moved and
 //!   scaled copies of every ball, random windows, augmented every epoch; the logistic loss
 //!   plus the squared error of the correction on balls.
@@ -27,11 +27,11 @@ use candle_nn::{Conv2dConfig, Module, Optimizer, VarBuilder, VarMap};
 use proto::rng::Rng;
 use std::collections::{BTreeMap, HashMap};
 use thiserror::Error;
-use vision::checker::{self, Checker};
-use vision::heatnet::{self, CELL_PX, FORMAT, HEAD_IN, HeatNet, InputGeometry, LAYERS};
 use vision::image::RgbImage;
-use vision::nn::WeightsError;
-use vision::patch::PATCH_SIDE_PX;
+use vision::stages::candidates::{self, CELL_PX, FORMAT, HEAD_IN, HeatNet, InputGeometry, LAYERS};
+use vision::stages::checker::{self, Checker};
+use vision::stages::nn::WeightsError;
+use vision::stages::patch::PATCH_SIDE_PX;
 
 /// Why training failed.
 #[derive(Debug, Error)]
@@ -151,7 +151,7 @@ impl FramePhoto {
         let g = InputGeometry::with_scale(image.width(), image.height(), scale);
         let size = [f64::from(image.width()), f64::from(image.height())];
         FramePhoto {
-            rgb: heatnet::shrink(image, &g),
+            rgb: candidates::shrink(image, &g),
             width: g.width_px,
             height: g.height_px,
             balls: balls
@@ -273,9 +273,9 @@ fn crop(p: &FramePhoto, rng: &mut Rng, augment: bool) -> Crop {
         padded_height_px: h,
     };
     let act = if uw * uh == 0 {
-        vision::nn::Act::zeros(1, h, w, 3)
+        vision::stages::nn::Act::zeros(1, h, w, 3)
     } else {
-        heatnet::normalise(&rgb, &g)
+        candidates::normalise(&rgb, &g)
     };
     let mut input = vec![0f32; 3 * w * h];
     for (i, px) in act.data.chunks_exact(3).enumerate() {
@@ -302,7 +302,10 @@ fn crop(p: &FramePhoto, rng: &mut Rng, augment: bool) -> Crop {
         let sigma = (0.5 * r).max(0.5 * cell);
         for row in 0..rows {
             for col in 0..cols {
-                let (ccx, ccy) = (heatnet::cell_centre_px(col), heatnet::cell_centre_px(row));
+                let (ccx, ccy) = (
+                    candidates::cell_centre_px(col),
+                    candidates::cell_centre_px(row),
+                );
                 let d2 = (ccx - cx).powi(2) + (ccy - cy).powi(2);
                 let y = (-d2 / (2.0 * sigma * sigma)).exp() as f32;
                 let i = row * cols + col;
@@ -313,8 +316,8 @@ fn crop(p: &FramePhoto, rng: &mut Rng, augment: bool) -> Crop {
             continue;
         }
         let (col, row) = (
-            heatnet::nearest_cell(cx, cols),
-            heatnet::nearest_cell(cy, rows),
+            candidates::nearest_cell(cx, cols),
+            candidates::nearest_cell(cy, rows),
         );
         label[row * cols + col] = 1.0;
         // The ball's cell and its eight neighbours all learn where the ball is from them,
@@ -329,9 +332,9 @@ fn crop(p: &FramePhoto, rng: &mut Rng, augment: bool) -> Crop {
                 if r > best_r[i] {
                     best_r[i] = r;
                     reg[i] = 1.0;
-                    target[i] = ((cx - heatnet::cell_centre_px(cc as usize)) / cell) as f32;
+                    target[i] = ((cx - candidates::cell_centre_px(cc as usize)) / cell) as f32;
                     target[rows * cols + i] =
-                        ((cy - heatnet::cell_centre_px(rr as usize)) / cell) as f32;
+                        ((cy - candidates::cell_centre_px(rr as usize)) / cell) as f32;
                     target[2 * rows * cols + i] = (r / cell).ln() as f32;
                 }
             }
@@ -373,7 +376,7 @@ impl HeatLayers {
             .collect::<candle_core::Result<Vec<_>>>()?;
         let head = candle_nn::conv2d(
             HEAD_IN,
-            heatnet::OUTPUTS,
+            candidates::OUTPUTS,
             1,
             Conv2dConfig::default(),
             vb.pp("head"),
@@ -615,7 +618,7 @@ fn prior_bias(varmap: &VarMap) -> Result<(), DetectorTrainError> {
         if name == "head.bias" {
             let mut v = var.as_tensor().to_vec1::<f32>()?;
             v[0] = -4.6;
-            var.set(&Tensor::from_vec(v, heatnet::OUTPUTS, &Device::Cpu)?)?;
+            var.set(&Tensor::from_vec(v, candidates::OUTPUTS, &Device::Cpu)?)?;
         }
     }
     Ok(())

@@ -91,7 +91,7 @@ fn the_agents_forward_passes_match_the_training_crates() {
     assert!(file.len() < 1_000_000, "{} bytes", file.len());
     let mut rng = Rng::new(9);
     let (img, _) = photo(&mut rng, 300, 170, Some(([100.0, 80.0], 12.0)));
-    let (x, g) = heatnet::input(&img);
+    let (x, g) = candidates::input(&img);
     let (h, w) = (x.h, x.w);
     let mut chw = vec![0f32; 3 * h * w];
     for (i, px) in x.data.chunks_exact(3).enumerate() {
@@ -101,7 +101,7 @@ fn the_agents_forward_passes_match_the_training_crates() {
     }
     let patches: Vec<f32> = (0..3)
         .flat_map(|k| {
-            let c = vision::hough::Circle {
+            let c = vision::Circle {
                 center_px: [100.0 + 10.0 * f64::from(k), 80.0],
                 radius_px: 12.0,
                 score: 1.0,
@@ -176,8 +176,8 @@ fn a_crops_ball_cell_is_where_the_ball_is() {
             let (row, col) = (i / cols, i % cols);
             assert_eq!(crop.reg[i], 1.0);
             assert_eq!(crop.weight[i], 1.0);
-            let cx = heatnet::cell_centre_px(col) + f64::from(crop.target[i]) * CELL_PX as f64;
-            let cy = heatnet::cell_centre_px(row)
+            let cx = candidates::cell_centre_px(col) + f64::from(crop.target[i]) * CELL_PX as f64;
+            let cy = candidates::cell_centre_px(row)
                 + f64::from(crop.target[rows * cols + i]) * CELL_PX as f64;
             // The ball is the frame's most colourful thing: its centre pixel stands far
             // from the crop's mean in some channel.

@@ -24,11 +24,11 @@ use thiserror::Error;
 
 use crate::svm_train::{Model, Platt, SvmError, SvmParams, cross_val_decisions, fit_uncalibrated};
 use proto::rng::SplitMix64;
-use vision::detect::{DetectError, Detector, DetectorConfig};
-use vision::hog::hog;
-use vision::hsv::HsvThresholds;
-use vision::patch::Patch;
-use vision::two_colour::PatternConfig;
+use vision::settings::HsvThresholds;
+use vision::settings::PatternConfig;
+use vision::stages::hog::hog;
+use vision::stages::patch::Patch;
+use vision::{DetectError, Detector, DetectorConfig};
 
 /// Why training failed.
 #[derive(Debug, Clone, PartialEq, Error)]

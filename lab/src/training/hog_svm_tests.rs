@@ -133,9 +133,9 @@ fn bench_filter_stages() {
     let predict_us = t.elapsed().as_secs_f64() * 1e6 / features.len() as f64;
     let json_kb = model.to_json().unwrap().len() as f64 / 1024.0;
     let (image, centre, radius) = vision::patch_fixtures::ball_frame(&mut SplitMix64::new(5));
-    let patch_cfg = vision::patch::PatchConfig::default();
-    let colour_cfg = vision::kmeans::ColourCheckConfig::default();
-    let thresholds = vision::hsv::HsvThresholds {
+    let patch_cfg = vision::settings::PatchConfig::default();
+    let colour_cfg = vision::settings::ColourCheckConfig::default();
+    let thresholds = vision::settings::HsvThresholds {
         hue_lo_deg: 10.0,
         hue_hi_deg: 45.0,
         sat_min: 0.4,
@@ -146,7 +146,7 @@ fn bench_filter_stages() {
     let reps = 2000;
     let t = Instant::now();
     for _ in 0..reps {
-        sink += vision::patch::extract(&image, centre, radius, &patch_cfg)
+        sink += vision::stages::patch::extract(&image, centre, radius, &patch_cfg)
             .unwrap()
             .grey()[0];
     }
@@ -154,8 +154,14 @@ fn bench_filter_stages() {
     let t = Instant::now();
     let mut passes = 0;
     for _ in 0..reps {
-        let c =
-            vision::kmeans::colour_check(&image, centre, radius, &thresholds, None, &colour_cfg);
+        let c = vision::stages::colour::colour_check(
+            &image,
+            centre,
+            radius,
+            &thresholds,
+            None,
+            &colour_cfg,
+        );
         passes += usize::from(c.unwrap().passes);
     }
     let colour_us = t.elapsed().as_secs_f64() * 1e6 / f64::from(reps);

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::image::RgbImage;
-use crate::image::gray::GrayImage;
+use vision::GrayImage;
+use vision::image::RgbImage;
 
 /// Why an image file could not be loaded.
 #[derive(Debug, Error)]

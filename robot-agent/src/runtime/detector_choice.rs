@@ -5,19 +5,17 @@
 //! [`choose_detector`], which reads the model file once, checks that it is the kind the
 //! named detector runs, and refuses a mismatch with a sentence that says what to do.
 
-use crate::detection::ballnet::BallNet;
-use crate::detection::checker::Checker;
-use crate::detection::classifier::NetClassifier;
-use crate::detection::detect::{
-    CandidateClassifier, ClassifierKind, Detector, DetectorConfig, Proposer,
-};
-use crate::detection::heatnet::HeatNet;
-use crate::detection::svm::Model;
 use crate::projection::ProjectionNoise;
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use vision::stages::ballnet::BallNet;
+use vision::stages::candidates::HeatNet;
+use vision::stages::checker::Checker;
+use vision::stages::classifier::NetClassifier;
+use vision::stages::svm::Model;
+use vision::{CandidateClassifier, ClassifierKind, Detector, DetectorConfig, Proposer};
 
 /// The detectors the agent ships, by name.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -151,7 +149,7 @@ impl ChosenDetector {
         kind: DetectorKind,
         settings: &DetectorConfig,
         classifier: Arc<dyn CandidateClassifier + Send + Sync>,
-    ) -> Result<Self, crate::detection::detect::DetectError> {
+    ) -> Result<Self, vision::DetectError> {
         let config = kind.apply(*settings);
         Ok(ChosenDetector {
             kind,
@@ -227,14 +225,14 @@ fn load_model(path: &Path) -> Result<LoadedModel> {
     let name = path.display();
     let bytes = std::fs::read(path).with_context(|| format!("reading the model file {name}"))?;
     match safetensors_format(&bytes) {
-        Some(Some(format)) if format == crate::detection::heatnet::FORMAT => {
+        Some(Some(format)) if format == vision::stages::candidates::FORMAT => {
             let net = HeatNet::from_safetensors(&bytes)
                 .with_context(|| format!("{name}: the candidate network"))?;
             let checker = Checker::from_safetensors(&bytes)
                 .with_context(|| format!("{name}: the grey checker"))?;
             Ok(LoadedModel::TwoStage(Box::new((net, checker))))
         }
-        Some(Some(format)) if format == crate::detection::ballnet::FORMAT => {
+        Some(Some(format)) if format == vision::stages::ballnet::FORMAT => {
             let net = BallNet::from_safetensors(&bytes)
                 .with_context(|| format!("{name}: the ball network"))?;
             Ok(LoadedModel::BallNet(net))
@@ -258,11 +256,11 @@ fn load_model(path: &Path) -> Result<LoadedModel> {
                 )
             })?;
             anyhow::ensure!(
-                model.dim() == crate::detection::hog::HOG_LEN,
+                model.dim() == vision::stages::hog::HOG_LEN,
                 "the HOG + SVM filter {name} takes {} features, the detector gives {}: train \
                  it again with this agent",
                 model.dim(),
-                crate::detection::hog::HOG_LEN
+                vision::stages::hog::HOG_LEN
             );
             Ok(LoadedModel::HogSvm(model))
         }

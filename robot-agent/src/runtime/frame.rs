@@ -2,10 +2,10 @@
 //! the robot's state at the capture ([`StoredFrame`], [`RobotState`]); and an image message
 //! of a recording, decoded only when its frame is processed ([`McapImage`]).
 
-use crate::image::RgbImage;
 use anyhow::{Result, bail};
 use proto::{Camera, HeadJoints, Pose2, Stamp};
 use serde::{Deserialize, Serialize};
+use vision::image::RgbImage;
 
 /// The robot's state at a capture: what projection needs besides the image.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -16,7 +16,6 @@
 //! A MiRo's ROS recordings (channels with the `ros1` or `cdr` message encoding) are read
 //! too: see [`crate::ros_frames`].
 
-use crate::image::RgbImage;
 use crate::io::ros_msg::Encoding;
 use crate::runtime::frame::{McapImage, RobotState, StoredFrame};
 use crate::runtime::ros_frames::{RosMessage, RosStates, RosTopics};
@@ -28,6 +27,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use vision::image::RgbImage;
 
 /// One line of an image folder's `frames.jsonl`.
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -3,10 +3,11 @@
 //! ([`crate::runtime::views`]), with pacing, restamping, frame recording and a summary. It
 //! runs on its own thread (it is CPU-bound and must not stall the network).
 
-use crate::agent::{Agent, FrameInput, FrameOutcome};
-use crate::image::RgbImage;
+use crate::agent::{Agent, FrameOutcome};
+use crate::pipeline::FrameInput;
 use crate::pipeline::FrameResult;
 use crate::runtime::RunArgs;
+use crate::runtime::eyes::{Done, Eyes};
 use crate::runtime::frame::StoredFrame;
 use crate::runtime::frames_io::{FolderWriter, McapFrameWriter};
 use crate::runtime::source::FrameSource;
@@ -20,6 +21,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
+use vision::image::RgbImage;
 
 /// What the pipeline thread hands to the network side.
 #[derive(Debug)]
@@ -99,85 +101,183 @@ impl FrameSink {
     }
 }
 
-/// Runs the pipeline over the source until it ends, `duration` passes or `stop` is set.
+/// Runs the pipeline over the source until it ends, `duration` passes or `stop` is set:
+/// each camera's frames on that camera's own thread ([`Eyes`]), what they give accounted
+/// here in the order the frames came.
 pub(crate) fn perceive(
-    mut agent: Agent,
+    agent: Agent,
     mut source: Box<dyn FrameSource>,
     args: &RunArgs,
     shared: Arc<Mutex<Option<BallState>>>,
     out: Option<mpsc::Sender<Outbound>>,
     stop: Arc<AtomicBool>,
-    mut hook: Option<FrameHook>,
+    hook: Option<FrameHook>,
 ) -> Result<Summary> {
-    let mut sink = args
+    let sink = args
         .record_frames
         .as_deref()
         .map(FrameSink::create)
         .transpose()?;
     let mut pacer = Pacer::new(args, source.live());
-    let mut status = StatusClock::new(args.status_hz);
-    let mut views = Views::start(args, &agent, out.as_ref())?;
-    let mut timer = StageTimer::new();
-    let mut summary = Summary::default();
-    let mut last_progress = Instant::now();
-    while !stop.load(Ordering::Relaxed) && !launcher_gone(args, &agent) {
+    let views = Views::start(args, &agent, out.as_ref())?;
+    let mut eyes = Eyes::start(&agent)?;
+    let mut books = Books {
+        agent,
+        status: StatusClock::new(args.status_hz),
+        views,
+        timer: StageTimer::new(),
+        summary: Summary::default(),
+        last_progress: Instant::now(),
+        sink,
+        out,
+        hook,
+    };
+    let mut given = 0u64;
+    while !stop.load(Ordering::Relaxed) && !launcher_gone(args, &books.agent) {
         let Some(mut frame) = source.next_frame()? else {
             break;
         };
         let source_stamp = frame.stamp;
-        match pacer.admit(&mut frame.stamp, summary.frames == 0) {
+        match pacer.admit(&mut frame.stamp, given == 0) {
             Admission::End => break,
             Admission::Late => {
-                summary.skipped += 1;
+                books.summary.skipped += 1;
                 continue;
             }
             Admission::Now => {}
         }
-        let outcome = perceive_frame(&mut agent, &frame, &shared, args, &mut timer)?;
-        agent.record_pipeline_ms(frame.camera, timer.frame_ms());
+        // The camera's eye takes one frame at a time: what came before it is accounted
+        // first, in order.
+        while eyes.busy(frame.camera) {
+            books.take_oldest(&mut eyes)?;
+        }
+        // Each new state is handed over once; the agent keeps the latest.
+        if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
+            books.agent.on_ball_state(state);
+        }
+        fit_calibration(
+            &mut books.agent,
+            frame.camera,
+            &frame.image,
+            args.rescale_calibration,
+        )?;
+        let model = *books.agent.camera_model(frame.camera);
+        let ball = books.agent.shared_at(frame.stamp);
+        eyes.give(frame, source_stamp, model, ball)?;
+        given += 1;
+    }
+    while books.take_oldest(&mut eyes)? {}
+    drop(eyes);
+    books.finish()
+}
+
+/// What the loop keeps of the frames the eyes give back: the agent's accounts, the
+/// summary, and everything a frame's outcome goes to.
+struct Books {
+    agent: Agent,
+    status: StatusClock,
+    views: Option<Views>,
+    timer: StageTimer,
+    summary: Summary,
+    last_progress: Instant,
+    sink: Option<FrameSink>,
+    out: Option<mpsc::Sender<Outbound>>,
+    hook: Option<FrameHook>,
+}
+
+impl Books {
+    /// Accounts the oldest frame the eyes hold (waiting for it); false when they hold none.
+    fn take_oldest(&mut self, eyes: &mut Eyes) -> Result<bool> {
+        let Some(done) = eyes.take_oldest()? else {
+            return Ok(false);
+        };
+        let Done {
+            frame,
+            source_stamp,
+            result,
+            marks,
+        } = done;
+        self.timer.start();
+        for (stage, ms) in &marks {
+            self.timer.record(stage, *ms);
+        }
+        eyes.recycle(frame.camera, marks);
+        let result = result.context("pipeline")?;
+        let input = FrameInput {
+            stamp: frame.stamp,
+            camera: frame.camera,
+            image: &frame.image,
+            pose: frame.state.pose,
+            pose_covariance: frame.state.pose_covariance,
+            head: frame.state.head,
+        };
+        let outcome = self.agent.account(&input, result);
+        self.account(&frame, source_stamp, outcome)?;
+        Ok(true)
+    }
+
+    /// A frame's outcome: the summary, the hook, the observation, the view, the status,
+    /// the recording and the progress line.
+    fn account(
+        &mut self,
+        frame: &StoredFrame,
+        source_stamp: Stamp,
+        outcome: FrameOutcome,
+    ) -> Result<()> {
+        let frame_ms = self.timer.frame_ms();
+        self.agent.record_pipeline_ms(frame.camera, frame_ms);
+        let summary = &mut self.summary;
         summary.frames += 1;
         if summary.total_ms.len() < MAX_TIMED_FRAMES {
-            summary.total_ms.push(timer.frame_ms());
+            summary.total_ms.push(frame_ms);
         }
-        if let Some(hook) = &mut hook {
+        if let Some(hook) = &mut self.hook {
             hook(&FrameReport {
                 source_stamp,
-                frame: &frame,
+                frame,
                 outcome: &outcome,
             });
         }
         if let Some(o) = outcome.observation {
             summary.observations += 1;
-            if let Some(tx) = &out {
+            if let Some(tx) = &self.out {
                 let _ = tx.blocking_send(Outbound::Observation(o));
             }
         }
-        if let Some(views) = &mut views {
-            views.offer(&frame, outcome.result, timer.frame_ms());
+        if let Some(views) = &mut self.views {
+            views.offer(frame, outcome.result, frame_ms);
         }
-        if let Some(st) = status.due(&mut agent, &frame, &timer, summary.frames)
-            && let Some(tx) = &out
+        if let Some(st) = self
+            .status
+            .due(&mut self.agent, frame, &self.timer, summary.frames)
+            && let Some(tx) = &self.out
         {
             let _ = tx.blocking_send(Outbound::Status(st));
         }
-        if let Some(sink) = &mut sink {
-            sink.write(&frame)?;
+        if let Some(sink) = &mut self.sink {
+            sink.write(frame)?;
         }
-        if last_progress.elapsed() >= PROGRESS_EVERY {
-            last_progress = Instant::now();
-            log_progress(&agent, &summary, &timer);
+        if self.last_progress.elapsed() >= PROGRESS_EVERY {
+            self.last_progress = Instant::now();
+            log_progress(&self.agent, &self.summary, &self.timer);
         }
+        Ok(())
     }
-    if let Some(views) = views {
-        let counts = views.encoder.finish();
-        summary.views_sent = counts.sent;
-        summary.views_dropped = counts.dropped;
-        summary.views_failed = counts.failed;
+
+    /// The views' and the recording's ends, and the summary.
+    fn finish(self) -> Result<Summary> {
+        let mut summary = self.summary;
+        if let Some(views) = self.views {
+            let counts = views.encoder.finish();
+            summary.views_sent = counts.sent;
+            summary.views_dropped = counts.dropped;
+            summary.views_failed = counts.failed;
+        }
+        if let Some(sink) = self.sink {
+            sink.finish()?;
+        }
+        Ok(summary)
     }
-    if let Some(sink) = sink {
-        sink.finish()?;
-    }
-    Ok(summary)
 }
 
 /// The camera views of a run that publishes: when each is due, and their encoder.
@@ -302,32 +402,6 @@ impl Pacer {
     }
 }
 
-/// One frame through the agent: the newest ball state handed over first, the camera's
-/// calibration checked against the frame's size.
-fn perceive_frame(
-    agent: &mut Agent,
-    frame: &StoredFrame,
-    shared: &Mutex<Option<BallState>>,
-    args: &RunArgs,
-    timer: &mut StageTimer,
-) -> Result<FrameOutcome> {
-    // Each new state is handed over once; the agent keeps the latest.
-    if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
-        agent.on_ball_state(state);
-    }
-    fit_calibration(agent, frame.camera, &frame.image, args.rescale_calibration)?;
-    let input = FrameInput {
-        stamp: frame.stamp,
-        camera: frame.camera,
-        image: &frame.image,
-        pose: frame.state.pose,
-        pose_covariance: frame.state.pose_covariance,
-        head: frame.state.head,
-    };
-    timer.start();
-    agent.on_frame(&input, timer).context("pipeline")
-}
-
 /// When the next status is due, at `--status-hz` of frame time.
 struct StatusClock {
     started: Instant,
@@ -392,12 +466,9 @@ fn fit_calibration(
     if (cw, ch) == (w, h) {
         return Ok(());
     }
-    let fitted =
-        crate::detection::photo::fit_to_photo(model, w, h, rescale).with_context(|| {
-            format!(
-                "the {camera:?} camera's frames (use --rescale-calibration for a resized stream)"
-            )
-        })?;
+    let fitted = vision::photo::fit_to_photo(model, w, h, rescale).with_context(|| {
+        format!("the {camera:?} camera's frames (use --rescale-calibration for a resized stream)")
+    })?;
     tracing::warn!(
         "the {camera:?} camera's calibration is for {cw}×{ch} px frames: scaled to the frames' {w}×{h} px"
     );

@@ -5,11 +5,11 @@
 
 use super::*;
 use crate::agent::PipelineConfig;
-use crate::detection::detect::HoughOnly;
 use crate::runtime::frame::RobotState;
 use crate::test_fixtures::{head, miro_lens};
 use clap::Parser;
 use proto::{Camera, Pitch, Pose2, Validate, ValidationContext};
+use vision::HoughOnly;
 
 #[derive(Debug, Parser)]
 struct Cli {
@@ -181,4 +181,60 @@ fn view_rates_out_of_range_are_refused_by_the_flag() {
     }
     assert_eq!(args(&[]).view_hz, 2.0);
     assert_eq!(args(&["--view-hz", "0.5"]).view_hz, 0.5);
+}
+
+#[test]
+fn each_camera_is_perceived_on_its_own_thread_and_accounted_in_order() {
+    type Seen = Vec<(Stamp, Camera, Option<u64>)>;
+    let seen: Arc<Mutex<Seen>> = Arc::default();
+    let threads: Arc<Mutex<std::collections::BTreeSet<String>>> = Arc::default();
+    let hook: FrameHook = {
+        let (seen, threads) = (seen.clone(), threads.clone());
+        Box::new(move |r: &FrameReport<'_>| {
+            let seq = r.outcome.observation.as_ref().map(|o| o.seq);
+            seen.lock()
+                .unwrap()
+                .push((r.source_stamp, r.frame.camera, seq));
+            // The process's threads by name, while the eyes run.
+            if let Ok(tasks) = std::fs::read_dir("/proc/self/task") {
+                for task in tasks.flatten() {
+                    if let Ok(name) = std::fs::read_to_string(task.path().join("comm")) {
+                        threads.lock().unwrap().insert(name.trim().to_string());
+                    }
+                }
+            }
+        })
+    };
+    let summary = perceive(
+        agent(),
+        Box::new(frames(2)),
+        &args(&["--offline"]),
+        Arc::new(Mutex::new(None)),
+        None,
+        Arc::new(AtomicBool::new(false)),
+        Some(hook),
+    )
+    .unwrap();
+    let seen = seen.lock().unwrap();
+    assert_eq!((summary.frames, seen.len()), (40, 40));
+    // Accounted in the order the source gave them: the left then the right frame of each
+    // capture time.
+    for pair in seen.windows(2) {
+        let [(t0, c0, _), (t1, c1, _)] = [pair[0], pair[1]];
+        assert!(
+            t0 < t1 || (t0 == t1 && c0 == Camera::Left && c1 == Camera::Right),
+            "{pair:?}"
+        );
+    }
+    // The observations numbered in that order (each frame holds the ball).
+    let seqs: Vec<u64> = seen.iter().filter_map(|s| s.2).collect();
+    assert!(seqs.len() >= 30, "{seqs:?}");
+    assert_eq!(seqs, (0..seqs.len() as u64).collect::<Vec<u64>>());
+    if cfg!(target_os = "linux") {
+        let threads = threads.lock().unwrap();
+        assert!(
+            threads.contains("eye-left") && threads.contains("eye-right"),
+            "{threads:?}"
+        );
+    }
 }

@@ -1,14 +1,14 @@
 //! `--source ros1`: a running MiRo's topics read straight from its ROS 1 master (no bridge),
-//! through the agent's own ROS 1 node ([`crate::io::ros1`]). The topics and what becomes of
+//! through the ROS 1 client's node ([`ros1_client`]). The topics and what becomes of
 //! their messages are those of the Zenoh bridge's source ([`RosInbox`]).
 
 use crate::io::ros_msg::Encoding;
-use crate::io::ros1::{Node, NodeConfig, TopicSpec};
 use crate::runtime::frame::StoredFrame;
 use crate::runtime::live_ros::{RosFrames, RosInbox, RosRole};
 use crate::runtime::ros_frames::RosTopics;
 use crate::runtime::source::FrameSource;
 use anyhow::{Context, Result};
+use ros1_client::{Node, NodeConfig, TopicSpec};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 

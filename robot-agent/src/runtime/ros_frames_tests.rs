@@ -6,9 +6,9 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::image::RgbImage;
 use crate::runtime::source::{FrameSource, McapSource};
 use std::path::PathBuf;
+use vision::image::RgbImage;
 
 use crate::io::ros_msg_fixtures as fx;
 

@@ -1,9 +1,9 @@
 //! Stage timings: the pipeline marks the end of each stage, this clock measures the time
 //! between marks and keeps a window of recent durations per stage for the status.
 
-use crate::detection::detect::StageClock;
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
+use vision::StageClock;
 
 /// Durations kept per stage.
 const WINDOW: usize = 64;
@@ -65,11 +65,9 @@ fn median(values: &VecDeque<f64>) -> Option<f64> {
     proto::stats::median(&v)
 }
 
-impl StageClock for StageTimer {
-    fn mark(&mut self, stage: &'static str) {
-        let now = Instant::now();
-        let ms = now.duration_since(self.last).as_secs_f64() * 1e3;
-        self.last = now;
+impl StageTimer {
+    /// Records a stage of the current frame timed elsewhere (on a camera's own thread).
+    pub fn record(&mut self, stage: &'static str, ms: f64) {
         self.frame_ms += ms;
         if !self.order.contains(&stage) {
             self.order.push(stage);
@@ -79,5 +77,14 @@ impl StageClock for StageTimer {
             q.pop_front();
         }
         q.push_back(ms);
+    }
+}
+
+impl StageClock for StageTimer {
+    fn mark(&mut self, stage: &'static str) {
+        let now = Instant::now();
+        let ms = now.duration_since(self.last).as_secs_f64() * 1e3;
+        self.last = now;
+        self.record(stage, ms);
     }
 }

@@ -4,13 +4,13 @@
 //! hands a frame over without ever waiting: while the encoder is busy, views are dropped
 //! and counted.
 
-use crate::image::RgbImage;
 use crate::pipeline::FrameResult;
 use crate::view::camera_view;
 use proto::{Camera, CameraView, Stamp};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+use vision::image::RgbImage;
 
 /// Most views per second per camera `--view-hz` accepts.
 pub const MAX_VIEW_HZ: f64 = 30.0;

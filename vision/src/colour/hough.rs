@@ -28,6 +28,7 @@
 //! Pixel coordinates have x right and y down with the centre of the top-left pixel at
 //! (0, 0).
 
+use crate::circle::Circle;
 use thiserror::Error;
 
 /// Cosine of the largest angle between an edge pixel's inward normal and the direction to a
@@ -157,17 +158,6 @@ pub enum HoughError {
         /// Bytes given.
         actual: usize,
     },
-}
-
-/// A circle found by the Hough transform, in the mask's pixel coordinates.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Circle {
-    /// Centre (x right, y down), pixels.
-    pub center_px: [f64; 2],
-    /// Radius, pixels.
-    pub radius_px: f64,
-    /// Supporting edge pixels divided by the circumference in pixels.
-    pub score: f64,
 }
 
 /// An edge pixel: its sub-pixel edge location and its unit inward normal.

@@ -14,10 +14,10 @@
 //! neighbours and above `min_contrast` is a proposal; the proposals of all levels and sizes
 //! are ranked by response, ones that repeat a stronger proposal's place and size are
 //! dropped, and at most `max_candidates` survive. Deciding which of them is the ball is the
-//! classifier's work ([`crate::ballnet`]), which also refines the centre and the
+//! classifier's work ([`crate::check::ballnet`]), which also refines the centre and the
 //! radius: the filter's radius is only its size class.
 
-use crate::hough::Circle;
+use crate::circle::Circle;
 use crate::image::RgbImage;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;

@@ -5,9 +5,9 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::components::largest_components;
+use crate::colour::components::largest_components;
+use crate::colour::morphology::{close, open};
 use crate::image::ImageError;
-use crate::morphology::{close, open};
 use crate::test_fixtures::orange;
 use approx::assert_abs_diff_eq;
 use proptest::prelude::*;

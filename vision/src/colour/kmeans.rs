@@ -22,7 +22,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::hsv::{HsvError, HsvThresholds, rgb_to_hsv};
+use crate::colour::hsv::{HsvError, HsvThresholds, rgb_to_hsv};
 use crate::image::RgbImage;
 use proto::rng::SplitMix64;
 

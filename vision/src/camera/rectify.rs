@@ -11,7 +11,7 @@
 //! pixels, through the calibrated model.
 
 use crate::camera::CameraModel;
-use crate::hsv::MaskLut;
+use crate::colour::hsv::MaskLut;
 use crate::image::{ImageError, Mask, RgbImage};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -253,9 +253,9 @@ mod tests {
     }
 
     /// The circles the default Hough transform finds in `mask` seen through `view`.
-    fn circles_in_view(view: &LocalView, mask: &Mask) -> Vec<crate::hough::Circle> {
+    fn circles_in_view(view: &LocalView, mask: &Mask) -> Vec<crate::circle::Circle> {
         let local = view.sample_mask(mask).unwrap();
-        crate::hough::detect(
+        crate::colour::hough::detect(
             local.data(),
             local.width() as usize,
             local.height() as usize,
@@ -288,7 +288,7 @@ mod tests {
         );
         // In the frame the same silhouette is clearly not round.
         let frame_circles =
-            crate::hough::detect(mask.data(), 640, 360, &Default::default()).unwrap();
+            crate::colour::hough::detect(mask.data(), 640, 360, &Default::default()).unwrap();
         let fits_frame = frame_circles.iter().any(|f| {
             let r = Vector3::from(model.unproject(f.center_px).unwrap());
             r.angle(&centre) < 0.004 && f.score > c.score

@@ -7,7 +7,7 @@
 //! below lets white alone make anything, since each starts from the ball's colour:
 //!
 //! 1. Fragments of the ball's colour up to [`PatternConfig::join_reach_px`] pixels apart form
-//!    one blob ([`crate::components::joined_components`]).
+//!    one blob ([`crate::colour::components::joined_components`]).
 //! 2. A blob that covers less than [`PatternConfig::max_box_fill`] of its bounding box may be
 //!    a patterned ball (a disc, whole or cut by an edge, covers about π/4; a patterned
 //!    ball's ball colour about 0.45; a wall marking seen at a slant 0.5 to 0.6). Its local
@@ -19,7 +19,7 @@
 //!    extent, grown by [`PatternConfig::hull_growth`]): the notches fill up
 //!    ([`join_white`]).
 //! 4. After the detector's closing, the background the mask encloses is filled
-//!    ([`crate::morphology::fill_holes`]): the patches inside the outline, whatever their
+//!    ([`crate::colour::morphology::fill_holes`]): the patches inside the outline, whatever their
 //!    colour (a patch on the shaded side is grey, as dark as the floor). An opening then
 //!    smooths the outline ([`region_mask`]).
 //!
@@ -27,12 +27,12 @@
 //! keeps a circle the ball colour alone gave where both find one, so a plain ball's circles
 //! are the ones it always found. The colour check then accepts "ball
 //! colour and the patches' colour" as a ball's colours when the ball's colour holds a
-//! substantial share ([`crate::kmeans`]).
+//! substantial share ([`crate::colour::kmeans`]).
 
-use crate::components::Component;
-use crate::hsv::{HsvError, HsvThresholds};
+use crate::colour::components::Component;
+use crate::colour::hsv::{HsvError, HsvThresholds};
+use crate::colour::morphology::{close, fill_holes, open};
 use crate::image::Mask;
-use crate::morphology::{close, fill_holes, open};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 

@@ -8,15 +8,15 @@
 //! the ball. With a patterned ball's patch colour, the colour check accepts the ball's
 //! colour and the patches' together.
 
-use crate::ballnet::BallNet;
 use crate::check::CandidateClassifier;
-use crate::hog::hog;
-use crate::hough::Circle;
-use crate::hsv::HsvThresholds;
+use crate::check::ballnet::BallNet;
+use crate::check::hog::hog;
+use crate::check::patch::{PatchConfig, extract};
+use crate::check::svm::Model;
+use crate::circle::Circle;
+use crate::colour::hsv::HsvThresholds;
+use crate::colour::kmeans::{ColourCheckConfig, colour_check};
 use crate::image::RgbImage;
-use crate::kmeans::{ColourCheckConfig, colour_check};
-use crate::patch::{PatchConfig, extract};
-use crate::svm::Model;
 
 /// Colour check, then HOG + SVM.
 #[derive(Debug, Clone)]

@@ -2,12 +2,12 @@
 //! patterned ball's mask and the classifier's colour check. Every key is optional in a
 //! settings file; a table with some keys keeps the defaults of the others.
 
-use crate::contrast::AppearanceConfig;
-use crate::heatnet::PeakConfig;
-use crate::hough::HoughConfig;
-use crate::hsv::HsvThresholds;
-use crate::kmeans::ColourCheckConfig;
-use crate::two_colour::PatternConfig;
+use crate::appearance::AppearanceConfig;
+use crate::candidates::PeakConfig;
+use crate::colour::hough::HoughConfig;
+use crate::colour::hsv::HsvThresholds;
+use crate::colour::kmeans::ColourCheckConfig;
+use crate::colour::two_colour::PatternConfig;
 use serde::{Deserialize, Serialize};
 
 /// Where the detector's candidates come from.
@@ -18,11 +18,11 @@ pub enum Proposer {
     #[default]
     Colour,
     /// Compact blobs that stand out from their surroundings, of any colour
-    /// ([`crate::contrast`]).
+    /// ([`crate::appearance`]).
     Appearance,
     /// Both, the colour path's first.
     Both,
-    /// The candidate network's heatmap peaks ([`crate::heatnet`]), then the
+    /// The candidate network's heatmap peaks ([`crate::candidates`]), then the
     /// strongest appearance proposals that do not repeat them.
     Net,
 }
@@ -94,7 +94,7 @@ pub struct DetectorConfig {
     /// Margin added around each blob's box, pixels.
     pub roi_margin_px: u32,
     /// Grow the mask from the colour window's pixels through the wider `limits` window
-    /// ([`crate::seeded_mask`]), decided per image; otherwise the window alone.
+    /// ([`crate::colour::seeded_mask`]), decided per image; otherwise the window alone.
     pub seeded: bool,
     /// How far the seeded mask grows from the strict window's pixels, pixels (0: as far
     /// as the wider window reaches).
@@ -103,7 +103,7 @@ pub struct DetectorConfig {
     /// its own circle when the Hough transform finds none in it.
     pub small_blob_max_px: u32,
     /// A roundish blob in which the Hough transform found no circle is proposed as its
-    /// own circle ([`crate::blob_circle`]).
+    /// own circle ([`crate::colour::blob_circle`]).
     pub blob_fallback: bool,
     /// The circular Hough transform's settings.
     pub hough: HoughConfig,

@@ -17,10 +17,10 @@
 //! channel-major order) with metadata naming the format; a file for another architecture,
 //! or a truncated one, is refused with what was wrong.
 
-use crate::hough::Circle;
+use crate::check::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};
+use crate::circle::Circle;
 use crate::image::RgbImage;
 use crate::nn::{Act, Conv, WeightsError, WeightsFile};
-use crate::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};
 use std::collections::BTreeMap;
 
 /// The format named in a weights file's metadata.

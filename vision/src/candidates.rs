@@ -15,7 +15,7 @@
 //! new peak too near a kept one (within the larger of their radii and one cell) is left
 //! out.
 
-use crate::hough::Circle;
+use crate::circle::Circle;
 use crate::image::RgbImage;
 use crate::nn::{Act, Conv, WeightsError, WeightsFile};
 use std::collections::BTreeMap;

@@ -10,8 +10,8 @@
 //! - A close ball is bigger than the largest radius the Hough transform searches: its mask
 //!   is shrunk by whole factors first ([`shrink`]), and the circles found scaled back.
 
-use crate::components::Component;
-use crate::hough::Circle;
+use crate::circle::Circle;
+use crate::colour::components::Component;
 use crate::image::{Mask, RgbImage};
 
 /// The larger side of a blob's box, pixels.
@@ -55,7 +55,7 @@ pub fn is_roundish(blob: &Component, max_aspect: f64, min_fill: f64) -> bool {
 pub fn ring_share(image: &RgbImage, circle: &Circle) -> f64 {
     const POINTS: usize = 24;
     let [cx, cy] = circle.center_px;
-    let inner = crate::hsv::disc_hsv(image, circle, 0.6);
+    let inner = crate::colour::hsv::disc_hsv(image, circle, 0.6);
     if inner.is_empty() {
         return 0.0;
     }
@@ -85,7 +85,7 @@ pub fn ring_share(image: &RgbImage, circle: &Circle) -> f64 {
             }
             if let Some([r, g, b]) = image.pixel(x as u32, y as u32) {
                 total += 1;
-                let (h, s, v) = crate::hsv::rgb_to_hsv(r, g, b);
+                let (h, s, v) = crate::colour::hsv::rgb_to_hsv(r, g, b);
                 let dh = (h - hue).rem_euclid(360.0);
                 let dh = dh.min(360.0 - dh);
                 let alike = dh <= 20.0 && (s - sat).abs() <= 0.25 && s > 0.25 && v > 0.15;
@@ -140,7 +140,7 @@ pub fn unshrink(circle: Circle, factor: u32) -> Circle {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
-    use crate::components::largest_components;
+    use crate::colour::components::largest_components;
 
     fn disc(w: u32, h: u32, c: [f64; 2], r: f64) -> Mask {
         let mut m = Mask::zeros(w, h).unwrap();

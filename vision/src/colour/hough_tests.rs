@@ -256,7 +256,7 @@ proptest! {
 /// lies a few pixels from the centre the rim agrees on; the fit must still be taken.
 #[test]
 fn a_close_ball_with_an_uneven_rim_is_found() {
-    let text = include_str!("../tests/data/close-ball-mask.txt");
+    let text = include_str!("../../tests/data/close-ball-mask.txt");
     let rows: Vec<&str> = text.lines().collect();
     let (width, height) = (rows[0].len(), rows.len());
     let mask: Vec<u8> = rows

@@ -6,13 +6,13 @@
 //! lookup per pixel; [`mask_exact`] is the per-pixel reference. [`adapt`] follows slow
 //! lighting changes by moving the thresholds towards the colours of accepted balls.
 //!
-//! The mask cleanup lives in [`crate::morphology`] and the connected components
-//! in [`crate::components`].
+//! The mask cleanup lives in [`crate::colour::morphology`] and the connected components
+//! in [`crate::colour::components`].
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::hough::Circle;
+use crate::circle::Circle;
 use crate::image::{Mask, RgbImage};
 
 /// Why thresholds, or an adaptation request, are unusable.

@@ -9,9 +9,9 @@
 //! out. Nothing is carried from one picture to the next.
 //!
 //! One table answers both windows (two bits per colour cell, built like
-//! [`crate::hsv::MaskLut`]); the growth is a flood fill, linear in the pixels.
+//! [`crate::colour::hsv::MaskLut`]); the growth is a flood fill, linear in the pixels.
 
-use crate::hsv::{HsvError, HsvThresholds, MaskLut};
+use crate::colour::hsv::{HsvError, HsvThresholds, MaskLut};
 use crate::image::{Mask, RgbImage};
 
 const SEED: u8 = 2;

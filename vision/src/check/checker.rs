@@ -10,12 +10,12 @@
 //! radius over the candidate's. About 0.6 M multiply-adds a patch; the patches of a frame
 //! run as one batch ([`Checker::judge_all`]).
 
-use crate::ballnet::Verdict;
 use crate::check::CandidateClassifier;
-use crate::hough::Circle;
+use crate::check::ballnet::Verdict;
+use crate::check::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};
+use crate::circle::Circle;
 use crate::image::RgbImage;
 use crate::nn::{Act, Conv, WeightsError, WeightsFile, max_pool2};
-use crate::patch::{PATCH_SIDE_PX, PatchConfig, RgbPatch, extract_rgb};
 use std::collections::BTreeMap;
 
 /// The patch window's side over the candidate's radius.
@@ -70,7 +70,7 @@ pub struct Checker {
 impl Checker {
     /// The checker of a detector's weights file.
     pub fn from_safetensors(bytes: &[u8]) -> Result<Self, WeightsError> {
-        let file = WeightsFile::read(bytes, crate::heatnet::FORMAT)?;
+        let file = WeightsFile::read(bytes, crate::candidates::FORMAT)?;
         let mut convs = Vec::new();
         for (k, &(cin, cout)) in CONVOLUTIONS.iter().enumerate() {
             convs.push(file.conv(&format!("check.conv{}", k + 1), cin, cout, 3, 1, 1)?);
@@ -122,7 +122,7 @@ impl Checker {
                 a = max_pool2(&a);
             }
         }
-        crate::ballnet::verdicts(&self.output.dense(&self.hidden.dense(&a, true), false))
+        crate::check::ballnet::verdicts(&self.output.dense(&self.hidden.dense(&a, true), false))
     }
 
     /// The verdict on each circle of an image, `None` where no patch can be cut.

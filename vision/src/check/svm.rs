@@ -1,5 +1,5 @@
 //! A trained RBF-SVM ball classifier: its errors, feature standardisation, prediction,
-//! Platt calibration and serialisation (the training is in [`crate::svm`]).
+//! Platt calibration and serialisation (the training is in [`crate::check::svm`]).
 //!
 //! The model serialises to JSON with a format version. Support vectors and per-feature
 //! statistics are stored as base64 of little-endian `f32` (5.3 characters per value instead

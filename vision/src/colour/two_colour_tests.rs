@@ -5,7 +5,8 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::hough::{self, Circle, HoughConfig};
+use crate::circle::Circle;
+use crate::colour::hough::{self, HoughConfig};
 
 const SIDE: u32 = 80;
 const CENTRE: [f64; 2] = [40.3, 39.6];
@@ -98,7 +99,7 @@ fn a_patterned_ball_becomes_one_disc_that_the_hough_transform_finds() {
     assert!(region.count() as f64 > 0.95 * disc(RADIUS).count() as f64);
 
     // The ball colour alone is not the ball.
-    let found = circles(&crate::morphology::close(&ball, 2));
+    let found = circles(&crate::colour::morphology::close(&ball, 2));
     assert!(!found.iter().any(is_the_ball), "{found:?}");
 }
 
@@ -169,7 +170,7 @@ fn white_joins_only_within_reach_and_the_hull() {
 
 #[test]
 fn only_sparse_blobs_are_searched_as_patterned_balls() {
-    use crate::components::joined_components;
+    use crate::colour::components::joined_components;
     let cfg = PatternConfig::default();
     let blob = |m: &Mask| joined_components(m, 3, 1, 1)[0];
     // A disc, half a disc and a rectangle (a wall marking) cover most of their boxes.

@@ -19,7 +19,7 @@
 //! The orientation comes from a polynomial arctangent (error below 0.001°) instead of
 //! `atan2`, which keeps the whole descriptor at a few microseconds per patch.
 
-use crate::patch::{PATCH_SIDE_PX, Patch};
+use crate::check::patch::{PATCH_SIDE_PX, Patch};
 
 /// Orientation bins over [0°, 180°).
 pub const BINS: usize = 8;

@@ -119,7 +119,7 @@ fn bad_inputs_are_errors() {
 
 #[test]
 fn ball_colour_with_white_patches_passes_and_white_alone_fails() {
-    let white = crate::two_colour::PatternConfig::default().white;
+    let white = crate::colour::two_colour::PatternConfig::default().white;
     let cfg = ColourCheckConfig::default();
     // About 40 % orange, 60 % white: a patterned ball's colours.
     let img = frame([240, 240, 240], [230, 120, 30], 11);

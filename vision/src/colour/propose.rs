@@ -5,16 +5,19 @@
 //! frame, with a patterned ball's two-colour mask searched as well; and the proposals from
 //! them, less fragments of bigger things.
 
-use super::{DetectError, Detector, Proposal, Proposals, StageClock};
-use crate::blob_circle::{blob_circle, blob_size_px, is_roundish, ring_share, shrink, unshrink};
 use crate::camera::CameraModel;
-use crate::components::{BoundingBox, Component, joined_components};
-use crate::hough::{Circle, HoughConfig};
-use crate::hsv::MaskLut;
+use crate::camera::rectify::{LocalView, MAX_HALF_SIDE_PX};
+use crate::circle::Circle;
+use crate::colour::blob_circle::{
+    blob_circle, blob_size_px, is_roundish, ring_share, shrink, unshrink,
+};
+use crate::colour::components::{BoundingBox, Component, joined_components};
+use crate::colour::hough::HoughConfig;
+use crate::colour::hsv::MaskLut;
+use crate::colour::morphology::{close, open};
+use crate::colour::two_colour::{Hull, region_mask};
+use crate::detect::{DetectError, Detector, Proposal, Proposals, StageClock};
 use crate::image::{ImageError, Mask, RgbImage};
-use crate::morphology::{close, open};
-use crate::rectify::{LocalView, MAX_HALF_SIDE_PX};
-use crate::two_colour::{Hull, region_mask};
 use proto::CandidateStage;
 
 impl Detector {
@@ -27,7 +30,7 @@ impl Detector {
         patterned: Option<(Mask, Hull)>,
     ) -> Result<Vec<Circle>, DetectError> {
         let hough = |m: &Mask| {
-            crate::hough::detect(
+            crate::colour::hough::detect(
                 m.data(),
                 m.width() as usize,
                 m.height() as usize,
@@ -60,7 +63,7 @@ impl Detector {
     /// The colour path's proposals, stage by stage: the ball-colour mask and its cleanup,
     /// the blobs in it, the circles of each blob (in its local view with a camera model, in
     /// the frame without), and the proposals from them, less fragments of bigger things.
-    pub(super) fn propose_colour(
+    pub(crate) fn propose_colour(
         &self,
         image: &RgbImage,
         model: Option<&CameraModel>,
