@@ -72,17 +72,11 @@ pub fn main_exit() -> std::process::ExitCode {
     }
 }
 
-/// The `ball-lab` command line: parses the arguments, sets up logging (`RUST_LOG`) and
-/// runs the subcommand.
+/// The `ball-lab` command line: parses the arguments, sets up logging
+/// (`robot_agent::cli::init_logging`) and runs the subcommand.
 pub fn main() -> Result<()> {
     let cli = Cli::parse();
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    robot_agent::cli::init_logging();
     match cli.command {
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::CalibrateColour(args) => calibrate_colour_cmd::run(args),

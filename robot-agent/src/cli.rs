@@ -40,17 +40,24 @@ pub fn main_exit() -> std::process::ExitCode {
     }
 }
 
-/// The `robot-agent` command line: parses the arguments, sets up logging (`RUST_LOG`,
-/// Zenoh's own chatter held to errors) and runs the subcommand.
-pub fn main() -> Result<()> {
-    let cli = Cli::parse();
+/// The logging of the agent's programs and the tools around it: tracing to standard error,
+/// `RUST_LOG` to choose, Zenoh's own chatter held to errors. Call once, first thing.
+pub fn init_logging() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=error"));
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        // Colour codes only for a terminal: a log written to a file or the journal stays plain.
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
+}
+
+/// The `robot-agent` command line: parses the arguments, sets up logging
+/// ([`init_logging`]) and runs the subcommand.
+pub fn main() -> Result<()> {
+    let cli = Cli::parse();
+    init_logging();
     match cli.command {
         Command::Run(args) => {
             let rt = tokio::runtime::Builder::new_multi_thread()

@@ -9,14 +9,13 @@
 //!   [`photo_set`] (randomised labelled photos), [`tracks`], [`track_fixtures`] and
 //!   [`track_cases`] (ball tracks in CSV, and the regression tracks).
 //! - **Command-line plumbing**: [`cmd`] (the programs the system tests also run),
-//!   [`logging`], [`progress`].
+//!   [`progress`] (logging is `robot_agent::cli::init_logging`).
 //!
 //! Binaries: `demo`, `sim_robots`, `sim_agent`, `simulate`, `score_log`, `sim_track`,
 //! `synth_photos`, `sim_calibrate`, `train_sim`.
 
 pub mod agent_recall;
 pub mod cmd;
-pub mod logging;
 pub mod photo_set;
 pub mod progress;
 pub mod scoring;

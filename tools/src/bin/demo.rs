@@ -100,7 +100,7 @@ fn on_miro_ground(pitch: &Pitch) -> bool {
 
 fn main() -> Result<()> {
     let args = DemoArgs::parse();
-    tools::logging::init();
+    robot_agent::cli::init_logging();
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;

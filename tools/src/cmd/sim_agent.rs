@@ -58,7 +58,7 @@ pub fn main() -> Result<()> {
         argv.remove(1);
     }
     let args = Args::parse_from(argv);
-    crate::logging::init();
+    robot_agent::cli::init_logging();
     if args.source != "sim" {
         bail!(
             "source {:?}: sim_agent renders the simulator's cameras (`--source sim`); \

@@ -46,7 +46,7 @@ struct Args {
 
 pub fn main() -> Result<()> {
     let a = Args::parse();
-    crate::logging::init();
+    robot_agent::cli::init_logging();
     tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?
