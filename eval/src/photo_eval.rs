@@ -10,8 +10,6 @@ use crate::plot::{Chart, Marker, PALETTE, Series, Style, write_png};
 use anyhow::{Context, Result};
 use lab::labels::BallBox;
 use lab::labels::eval::{LabelEval, LabelReport, SIZE_BANDS_PX, TimingMs, band_name};
-use robot_agent::RgbImage;
-use robot_agent::{CandidateClassifier, Detector, NoClock, detect_photo};
 use serde::Serialize;
 use sim::Frame;
 use sim::{Background, PhotoProfile, synth_photo};
@@ -20,6 +18,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tools::photo_set::{encode, rendered_views};
 use tools::progress::Progress;
+use vision::CandidateClassifier;
+use vision::Detector;
+use vision::NoClock;
+use vision::RgbImage;
+use vision::photo::detect_photo;
 
 /// Where the generated section of the accuracy report starts and ends.
 pub const SECTION_BEGIN: &str = "<!-- evaluate-photos:begin -->";
@@ -58,7 +61,7 @@ fn frame_of(image: RgbImage) -> Frame {
 }
 
 /// A photo's candidates (circle and probability) and the detector's time on it.
-type Detected = (Vec<(robot_agent::Circle, Option<f64>)>, f64);
+type Detected = (Vec<(vision::Circle, Option<f64>)>, f64);
 
 /// Runs the detector on one photo.
 fn detect(
@@ -418,7 +421,7 @@ pub fn write_plot(dir: &Path, name: &str, results: &[PhotoSetResult]) -> Result<
 mod tests {
     use super::*;
     use lab::labels::eval::is_hit;
-    use robot_agent::Circle;
+    use vision::Circle;
 
     fn ball(x: f64, y: f64, w: f64) -> BallBox {
         BallBox {

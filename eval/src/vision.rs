@@ -11,8 +11,6 @@
 use crate::scenarios::{RunResult, evaluate_run};
 use proto::{Camera, Observation};
 use robot_agent::CameraModel;
-use robot_agent::NoClock;
-use robot_agent::RgbImage;
 use robot_agent::{Agent, DetectorKind, FrameInput, PipelineConfig};
 use sim::BallTruth;
 use sim::CameraRig;
@@ -21,6 +19,8 @@ use sim::{CameraWorld, CameraWorldConfig};
 use sim::{Delivery, ObsKind, SimConfig, SimRun};
 use std::path::PathBuf;
 use std::time::Instant;
+use vision::NoClock;
+use vision::RgbImage;
 
 /// The simulator puts pixel centres at +0.5 (its origin is the top-left pixel's corner);
 /// the agent's camera model puts the top-left pixel's centre at (0, 0), OpenCV's way. A

@@ -32,7 +32,7 @@ fn held_out_and_real_photos_clear_their_floors() {
     };
     let chosen = robot_agent::choose_detector(
         robot_agent::DetectorKind::Dissertation,
-        &robot_agent::DetectorConfig::default(),
+        &vision::DetectorConfig::default(),
         None,
     )
     .expect("the dissertation's detector");

@@ -47,7 +47,7 @@ fn train_fits_a_model_from_patch_folders() {
         // Shaded discs of varying size and offset against stripes of varying period.
         let r = 9.0 + f64::from(k % 5);
         let off = f64::from(k % 3) - 1.0;
-        let mut disc = robot_agent::RgbImage::filled(32, 32, [90, 110, 90]).unwrap();
+        let mut disc = vision::RgbImage::filled(32, 32, [90, 110, 90]).unwrap();
         let mut stripes = disc.clone();
         for y in 0..32u32 {
             for x in 0..32u32 {
@@ -61,7 +61,7 @@ fn train_fits_a_model_from_patch_folders() {
                 }
             }
         }
-        let png = |i: &robot_agent::RgbImage| robot_agent::encode_png(i).unwrap();
+        let png = |i: &vision::RgbImage| robot_agent::encode_png(i).unwrap();
         std::fs::write(pos.join(format!("{k}.png")), png(&disc)).unwrap();
         std::fs::write(neg.join(format!("{k}.png")), png(&stripes)).unwrap();
     }

@@ -13,32 +13,34 @@
 //! between frames (with each camera's perception counters), a camera's view for people
 //! watching ([`camera_view`]), image files and ROS messages ([`ros_msg`]), and the
 //! runtime's frame sources ([`FrameSource`], [`McapSource`]). The detector is the `vision`
-//! crate's ([`Detector`] and the classifiers [`BallNet`] and [`SvmModel`] are re-exported
-//! here for the agent's users); training, labels and calibration from chessboards are the
-//! `lab` crate's, which the robot's program does not link. Two public modules are APIs of
+//! crate's, through its own front door; training, labels and calibration from chessboards
+//! are the `lab` crate's, which the robot's program does not link. Two public modules are APIs of
 //! their own: [`builtin`] (the shipped calibration and ball classifier) and [`cli`] (the
 //! command line).
 //!
 //! ```
-//! use robot_agent::{Detector, DetectorConfig, NoClock, RgbImage};
+//! use proto::{Camera, HeadJoints, Pitch, Pose2, Stamp};
+//! use robot_agent::{Agent, DetectorKind, FrameInput, PipelineConfig, builtin, choose_detector};
 //!
-//! // A grey carpet with an orange ball of radius 20 px centred at (80, 60).
-//! let mut image = RgbImage::filled(160, 120, [90, 100, 90]).unwrap();
-//! for y in 0..120u32 {
-//!     for x in 0..160u32 {
-//!         if (f64::from(x) - 80.0).hypot(f64::from(y) - 60.0) <= 20.0 {
-//!             image.set_pixel(x, y, [235, 120, 25]);
-//!         }
-//!     }
-//! }
-//! let detector = Detector::new(DetectorConfig::default()).unwrap();
-//! let proposals = detector.propose(&image, None, &mut NoClock).unwrap();
-//! let nearest = proposals
-//!     .items
-//!     .iter()
-//!     .map(|p| (p.frame.center_px[0] - 80.0).hypot(p.frame.center_px[1] - 60.0))
-//!     .fold(f64::INFINITY, f64::min);
-//! assert!(nearest < 3.0, "the ball is proposed ({nearest} px off)");
+//! // The robot's detector, chosen in the one place every command chooses it.
+//! let settings = PipelineConfig::default();
+//! let chosen = choose_detector(DetectorKind::default(), &settings.detector, None).unwrap();
+//! let lens = builtin::sim_calibration().unwrap().model;
+//! let mut agent = Agent::new("miro1", Pitch::default(), settings, [lens, lens], chosen);
+//!
+//! // A frame of grey carpet: nothing to publish, and the frame counted.
+//! let image = vision::RgbImage::filled(640, 360, [120, 118, 112]).unwrap();
+//! let frame = FrameInput {
+//!     stamp: Stamp(1_000_000_000),
+//!     camera: Camera::Left,
+//!     image: &image,
+//!     pose: Pose2::default(),
+//!     pose_covariance: [1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-4],
+//!     head: HeadJoints::default(),
+//! };
+//! let outcome = agent.on_frame(&frame, &mut vision::NoClock).unwrap();
+//! assert!(outcome.observation.is_none());
+//! assert_eq!(agent.frames(), 1);
 //! ```
 
 mod agent;
@@ -75,14 +77,3 @@ pub use runtime::{
     FrameHook, FrameReport, RunArgs, Source, Summary as RunSummary, run as run_agent, wall_now,
 };
 pub use view::{VIEW_JPEG_TARGET_BYTES, ViewError, camera_view};
-pub use vision::Circle;
-pub use vision::GrayImage;
-pub use vision::RgbImage;
-pub use vision::photo::{PhotoCandidate, PhotoRejection, detect_photo};
-pub use vision::stages::ballnet::BallNet;
-pub use vision::stages::candidates::{HeatNet, PeakConfig};
-pub use vision::stages::checker::Checker;
-pub use vision::stages::hog::HOG_LEN;
-pub use vision::stages::patch::{Patch, PatchConfig, extract as extract_patch};
-pub use vision::stages::svm::Model as SvmModel;
-pub use vision::{CandidateClassifier, Detector, DetectorConfig, NoClock, StageClock};

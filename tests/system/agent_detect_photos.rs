@@ -7,10 +7,10 @@
 mod common;
 use common::halved;
 use proto::Pose2;
-use robot_agent::RgbImage;
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
+use vision::RgbImage;
 
 /// The `robot-agent` command line, built by this package from the product's source.
 const LAB_CLI: &str = env!("CARGO_BIN_EXE_system-ball-lab");

@@ -5,13 +5,13 @@
 #![allow(clippy::unwrap_used)]
 
 use lab::labels::BallBox;
-use robot_agent::RgbImage;
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig};
 use sim::{SimConfig, run_scenario};
 use std::path::Path;
 use std::process::Command;
+use vision::RgbImage;
 
 /// The `robot-agent` command line, built by this package from the product's source.
 const LAB_CLI: &str = env!("CARGO_BIN_EXE_system-ball-lab");
@@ -174,8 +174,9 @@ fn evaluate_and_train_on_a_labelled_folder() {
         &model,
     ]);
     assert!(stdout.contains("held out"), "{stdout}");
-    let m = robot_agent::SvmModel::from_json(&std::fs::read_to_string(&model).unwrap()).unwrap();
-    assert_eq!(m.dim(), robot_agent::HOG_LEN);
+    let m =
+        vision::stages::svm::Model::from_json(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(m.dim(), vision::stages::hog::HOG_LEN);
 
     // The trained model is used through --classifier, by evaluate and detect alike.
     let json = p("own-model.json");

@@ -33,7 +33,7 @@ async fn a_live_robot_over_a_zenoh_ros_bridge_feeds_the_agent() {
         truth.as_ref().is_some_and(|t| t.in_frame),
         "the ball is in view"
     );
-    let image = robot_agent::RgbImage::new(frame.width, frame.height, frame.rgb.clone()).unwrap();
+    let image = vision::RgbImage::new(frame.width, frame.height, frame.rgb.clone()).unwrap();
     let png = robot_agent::encode_png(&image).unwrap();
     let r = capture.reading;
 

@@ -148,7 +148,7 @@ fn train_on_photos_nobody_labelled_asks_the_teacher() {
     // The file is a detector the commands take.
     let chosen = robot_agent::choose_detector(
         robot_agent::DetectorKind::TwoStage,
-        &robot_agent::DetectorConfig::default(),
+        &vision::DetectorConfig::default(),
         Some(&model),
     )
     .expect("the robot's detector takes the file");
@@ -197,7 +197,7 @@ fn the_ball_network_learns_from_the_teacher_and_labelled_photos_beside() {
     assert!(stderr.contains("more training photos: "), "{stderr}");
     assert!(stderr.contains("student round 1 of 1"), "{stderr}");
     assert!(dir.path().join("net.round1.safetensors").is_file());
-    let net = robot_agent::BallNet::from_safetensors(&std::fs::read(&model).unwrap());
+    let net = vision::stages::ballnet::BallNet::from_safetensors(&std::fs::read(&model).unwrap());
     assert!(net.is_ok(), "not a ball network");
 }
 

@@ -84,7 +84,8 @@ fn train_makes_a_network_with_its_held_out_score_and_plot() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(stdout.contains("held-out photos"), "{stdout}");
-    let net = robot_agent::BallNet::from_safetensors(&std::fs::read(&model).unwrap()).unwrap();
+    let net = vision::stages::ballnet::BallNet::from_safetensors(&std::fs::read(&model).unwrap())
+        .unwrap();
     assert!(net.metadata()["held_out"].contains("recall"));
     assert!(net.metadata()["command"].contains("--hold-out 20240222"));
     let png = std::fs::read(&plot).unwrap();
@@ -211,8 +212,8 @@ fn the_two_stage_detector_trains_loads_and_reports_its_stages() {
     assert!(stderr.contains("nothing named to hold out"), "{stderr}");
     assert!(stderr.contains("hard-negative round 1"), "{stderr}");
     let bytes = std::fs::read(&model).unwrap();
-    robot_agent::Checker::from_safetensors(&bytes).unwrap();
-    let net = robot_agent::HeatNet::from_safetensors(&bytes).unwrap();
+    vision::stages::checker::Checker::from_safetensors(&bytes).unwrap();
+    let net = vision::stages::candidates::HeatNet::from_safetensors(&bytes).unwrap();
     assert!(net.metadata()["held_out"].contains("recall"));
     assert!(
         net.metadata()["data"].contains("held out: "),

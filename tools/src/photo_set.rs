@@ -104,7 +104,7 @@ pub fn rendered_views(n: usize, seed: u64) -> Result<Vec<Frame>> {
     Ok(out)
 }
 
-fn frame_of(image: robot_agent::RgbImage) -> Frame {
+fn frame_of(image: vision::RgbImage) -> Frame {
     Frame {
         width: image.width(),
         height: image.height(),
@@ -154,7 +154,7 @@ pub fn encode(photo: &SynthPhoto) -> Result<(Vec<u8>, &'static str)> {
             Ok((bytes, "jpg"))
         }
         None => {
-            let image = robot_agent::RgbImage::new(f.width, f.height, f.rgb.clone())?;
+            let image = vision::RgbImage::new(f.width, f.height, f.rgb.clone())?;
             Ok((robot_agent::encode_png(&image)?, "png"))
         }
     }
@@ -336,7 +336,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (w, h) = (96u32, 72u32);
         // A green floor with a red ball, labelled (class 0) beside the photo.
-        let mut image = robot_agent::RgbImage::filled(w, h, [40, 140, 50]).unwrap();
+        let mut image = vision::RgbImage::filled(w, h, [40, 140, 50]).unwrap();
         for y in 0..h {
             for x in 0..w {
                 if (f64::from(x) - 48.0).hypot(f64::from(y) - 36.0) < 10.0 {

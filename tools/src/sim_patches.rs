@@ -15,14 +15,16 @@
 use anyhow::Result;
 use lab::training_miners as miners;
 use robot_agent::CameraModel;
-use robot_agent::NoClock;
-use robot_agent::RgbImage;
-use robot_agent::{Patch, PatchConfig, extract_patch as extract};
 use sim::BallTruth;
 use sim::CameraRig;
 use sim::LensModel;
 use sim::{CameraWorld, CameraWorldConfig, patterned_ball};
 use sim::{SimConfig, run_scenario};
+use vision::NoClock;
+use vision::RgbImage;
+use vision::settings::PatchConfig;
+use vision::stages::patch::Patch;
+use vision::stages::patch::extract;
 
 /// How a candidate relates to the true ball.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -10,7 +10,6 @@
 use anyhow::{Context, Result};
 use proto::{Camera, Stamp};
 use robot_agent::FrameSource;
-use robot_agent::RgbImage;
 use robot_agent::{RobotState, StoredFrame};
 use sim::BallTruth;
 use sim::CameraRig;
@@ -19,6 +18,7 @@ use sim::{CameraWorld, CameraWorldConfig, patterned_ball};
 use sim::{SimConfig, SimRun};
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
+use vision::RgbImage;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimArgs {

@@ -5,16 +5,18 @@
 #![allow(clippy::unwrap_used)]
 
 use proto::{Camera, Stamp};
-use robot_agent::RgbImage;
 use robot_agent::RosTopics;
 use robot_agent::StageTimer;
 use robot_agent::StoredFrame;
 use robot_agent::ros_msg_fixtures as fx;
-use robot_agent::{Detector, DetectorConfig, NoClock};
 use robot_agent::{DetectorKind, choose_detector, load_models};
 use robot_agent::{FrameSource, McapSource};
 use std::path::PathBuf;
 use tools::sim_source::{SimArgs, SimSource};
+use vision::Detector;
+use vision::DetectorConfig;
+use vision::NoClock;
+use vision::RgbImage;
 
 const T0_S: u32 = 1_700_000_000;
 const LEFT: &str = "/miro/sensors/caml/compressed";

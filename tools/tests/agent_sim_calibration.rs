@@ -6,9 +6,9 @@
 
 use lab::{Board, LensModel, calibrate_with, detect_views};
 use robot_agent::CameraModel;
-use robot_agent::GrayImage;
-use robot_agent::RgbImage;
 use sim::{Chessboard, calibration_views, render_chessboard};
+use vision::GrayImage;
+use vision::RgbImage;
 
 /// Largest and RMS distance, pixels, between where the simulator's lens and the model put
 /// the same rays, over a grid covering the whole image.

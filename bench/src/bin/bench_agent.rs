@@ -13,8 +13,6 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use proto::{Camera, Pitch, Stamp};
-use robot_agent::RgbImage;
-use robot_agent::StageClock;
 use robot_agent::{Agent, FrameInput, PipelineConfig};
 use robot_agent::{DetectorArgs, DetectorKind, load_models};
 use sim::CameraRig;
@@ -23,6 +21,8 @@ use sim::{CameraWorld, CameraWorldConfig};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
+use vision::RgbImage;
+use vision::StageClock;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -467,8 +467,8 @@ fn main() -> Result<()> {
         let mut load_ms = Vec::new();
         for _ in 0..20 {
             let started = Instant::now();
-            robot_agent::HeatNet::from_safetensors(bytes)?;
-            robot_agent::Checker::from_safetensors(bytes)?;
+            vision::stages::candidates::HeatNet::from_safetensors(bytes)?;
+            vision::stages::checker::Checker::from_safetensors(bytes)?;
             load_ms.push(started.elapsed().as_secs_f64() * 1e3);
         }
         load_ms.sort_by(f64::total_cmp);

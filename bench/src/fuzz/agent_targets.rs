@@ -1,7 +1,7 @@
 //! robot-agent: the ROS 1 and ROS 2 message decoders, the VOC and YOLO label parsers, and
 //! PNG and JPEG decoding, each on mutated valid inputs.
 
-use robot_agent::RgbImage;
+use vision::RgbImage;
 
 use lab::labels::BallBox;
 use lab::labels::BallNames;

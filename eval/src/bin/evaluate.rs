@@ -319,8 +319,7 @@ fn run_photos(args: &Args) -> anyhow::Result<()> {
         profile: sim::PhotoProfile::heldout(),
     };
     let preset = args.detector;
-    let chosen =
-        robot_agent::choose_detector(preset, &robot_agent::DetectorConfig::default(), None)?;
+    let chosen = robot_agent::choose_detector(preset, &vision::DetectorConfig::default(), None)?;
     let (detector, classifier) = (&chosen.detector, &chosen.classifier);
     let min_probability = robot_agent::ValidationConfig::default().min_probability;
     let progress = tools::progress::Progress::new(0, "photos scored");

@@ -2,7 +2,7 @@
 
 #![allow(dead_code, clippy::unwrap_used)]
 
-use robot_agent::RgbImage;
+use vision::RgbImage;
 
 /// The image at half its size, each pixel the mean of four.
 pub fn halved(image: &RgbImage) -> RgbImage {

@@ -11,9 +11,9 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use lab::cli::calibrate::{FitArgs, fit_and_write, parse_board};
-use robot_agent::GrayImage;
-use robot_agent::RgbImage;
 use std::path::{Path, PathBuf};
+use vision::GrayImage;
+use vision::RgbImage;
 
 #[derive(Debug, Parser)]
 #[command(

@@ -8,10 +8,10 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use lab::labels::BallBox;
-use robot_agent::RgbImage;
 use sim::{CameraRig, CameraWorld, CameraWorldConfig, LensModel, SimConfig, run_scenario};
 use std::path::PathBuf;
 use tools::progress::Progress;
+use vision::RgbImage;
 
 #[derive(Debug, Parser)]
 #[command(about = "Write rendered MiRo camera frames of simulated matches with YOLO ball labels")]

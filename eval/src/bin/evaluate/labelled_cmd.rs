@@ -11,8 +11,9 @@ use lab::cli::evaluate::{EvaluateOptions, evaluate_items};
 use lab::cli::labelled::{Item, LabelledArgs, LabelledFolder};
 use lab::labels::eval::LabelReport;
 use robot_agent::DetectorKind;
-use robot_agent::{Detector, DetectorConfig};
 use std::path::{Path, PathBuf};
+use vision::Detector;
+use vision::DetectorConfig;
 
 pub const SECTION_BEGIN: &str = "<!-- evaluate-labelled:begin -->";
 pub const SECTION_END: &str = "<!-- evaluate-labelled:end -->";
@@ -53,7 +54,7 @@ impl Scored {
         &self,
     ) -> Result<(
         Detector,
-        std::sync::Arc<dyn robot_agent::CandidateClassifier + Send + Sync>,
+        std::sync::Arc<dyn vision::CandidateClassifier + Send + Sync>,
     )> {
         let chosen = robot_agent::choose_detector(
             self.kind,

@@ -114,19 +114,19 @@ fn run_detector(
                 }
             };
             let started = Instant::now();
-            let candidates = robot_agent::detect_photo(
+            let candidates = vision::photo::detect_photo(
                 &detector,
                 classifier.as_ref(),
                 min_probability,
                 &image,
                 None,
-                &mut robot_agent::NoClock,
+                &mut vision::NoClock,
             )
             .with_context(|| format!("{}: {}", scored.name, file.display()))?;
             let ms = started.elapsed().as_secs_f64() * 1e3;
             let best = candidates
                 .iter()
-                .filter(|c| c.rejection != Some(robot_agent::PhotoRejection::Repeat))
+                .filter(|c| c.rejection != Some(vision::photo::PhotoRejection::Repeat))
                 .filter_map(|c| c.probability)
                 .fold(0.0, f64::max);
             let result = PhotoResult { best, ms };

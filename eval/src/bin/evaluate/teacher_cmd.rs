@@ -37,8 +37,8 @@ pub struct TeacherEvalArgs {
 /// A robot detector scored beside the teacher.
 struct Robot {
     name: String,
-    detector: robot_agent::Detector,
-    classifier: std::sync::Arc<dyn robot_agent::CandidateClassifier + Send + Sync>,
+    detector: vision::Detector,
+    classifier: std::sync::Arc<dyn vision::CandidateClassifier + Send + Sync>,
 }
 
 /// The robot's detectors of `--beside`, scored box by box beside the teacher (every
@@ -59,18 +59,18 @@ fn robots(beside: &[String]) -> Result<Vec<Robot>> {
 
 /// A robot detector's candidates in a photo as ball boxes with their probabilities (the
 /// repeats of a ball and those refused outright left out), and its time, milliseconds.
-fn robot_boxes(robot: &Robot, image: &robot_agent::RgbImage) -> Result<(Vec<(BallBox, f64)>, f64)> {
+fn robot_boxes(robot: &Robot, image: &vision::RgbImage) -> Result<(Vec<(BallBox, f64)>, f64)> {
     let started = Instant::now();
-    let found = robot_agent::detect_photo(
+    let found = vision::photo::detect_photo(
         &robot.detector,
         robot.classifier.as_ref(),
         robot_agent::ValidationConfig::default().min_probability,
         image,
         None,
-        &mut robot_agent::NoClock,
+        &mut vision::NoClock,
     )?
     .into_iter()
-    .filter(|c| c.rejection != Some(robot_agent::PhotoRejection::Repeat))
+    .filter(|c| c.rejection != Some(vision::photo::PhotoRejection::Repeat))
     .filter_map(|c| {
         let p = c.probability?;
         let [x, y] = c.circle.center_px;
@@ -97,7 +97,7 @@ fn pct(v: f64) -> String {
 /// milliseconds.
 fn ball_boxes(
     teacher: &Teacher,
-    image: &robot_agent::RgbImage,
+    image: &vision::RgbImage,
     passes: &Passes,
 ) -> Result<(Vec<(BallBox, f64)>, f64)> {
     let started = Instant::now();
