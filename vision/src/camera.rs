@@ -10,9 +10,6 @@
 //! non-finite answer: behind the camera, outside the region where the distortion is
 //! invertible, or when the inverse distortion does not converge.
 
-/// Local perspective views of a fisheye frame, where a ball is round.
-pub(crate) mod rectify;
-
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 

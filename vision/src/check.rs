@@ -23,8 +23,8 @@ pub(crate) mod patch;
 pub(crate) mod svm;
 
 use crate::circle::Circle;
-use crate::detect::Proposals;
 use crate::image::RgbImage;
+use crate::proposal::Proposals;
 use proto::CandidateStage;
 
 /// Judges a circle: the probability that it is the ball, or `None` to reject it outright.
@@ -134,7 +134,7 @@ pub struct Candidate {
     pub probability: f64,
     /// Half the angle the ball subtends at the camera, when a camera model was given.
     pub angular_radius_rad: Option<f64>,
-    /// See [`crate::detect::Proposal::sparse_blob`].
+    /// See [`crate::proposal::Proposal::sparse_blob`].
     pub sparse_blob: bool,
     /// The stage that proposed it.
     pub stage: CandidateStage,

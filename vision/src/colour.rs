@@ -14,6 +14,8 @@
 //! - `two_colour`: the two-colour mask of a patterned ball (the ball's colour with white
 //!   patches) as one disc.
 //! - `kmeans`: the dominant-colour check of a candidate by k-means clustering.
+//! - `rectify`: local perspective views of a fisheye frame, where a ball is round (the
+//!   Hough transform runs in them).
 //! - `propose`: the colour path's proposals of one frame, stages `mask` to `hough`.
 
 pub(crate) mod blob_circle;
@@ -23,5 +25,6 @@ pub(crate) mod hsv;
 pub(crate) mod kmeans;
 pub(crate) mod morphology;
 pub(crate) mod propose;
+pub(crate) mod rectify;
 pub(crate) mod seeded_mask;
 pub(crate) mod two_colour;

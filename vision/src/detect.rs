@@ -43,6 +43,7 @@ use crate::colour::seeded_mask::SeededLut;
 use crate::colour::two_colour::PatternError;
 pub use crate::detect::config::{ClassifierKind, DetectorConfig, Proposer};
 use crate::image::{ImageError, RgbImage};
+pub use crate::proposal::{Proposal, Proposals};
 use proto::CandidateStage;
 use thiserror::Error;
 
@@ -90,39 +91,6 @@ fn same_place(a: &Circle, b: &Circle) -> bool {
     let d = (a.center_px[0] - b.center_px[0]).hypot(a.center_px[1] - b.center_px[1]);
     let (lo, hi) = (a.radius_px.min(b.radius_px), a.radius_px.max(b.radius_px));
     d < 0.5 * hi && hi < 2.0 * lo
-}
-
-/// A circle the colour and shape stages propose.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Proposal {
-    /// Centre in the frame; radius in the view's pixels (the frame's scale there).
-    pub frame: Circle,
-    /// The circle in its local view (or the frame, without a view).
-    pub local: Circle,
-    /// Index of its local view in [`Proposals::views`].
-    pub view: Option<usize>,
-    /// Half the angle the ball subtends at the camera, when a camera model was given.
-    pub angular_radius_rad: Option<f64>,
-    /// The circle came from a sparse blob (a patterned ball's fragments, or a ball partly
-    /// hidden): its outline, and so its radius, is less certain than a solid disc's.
-    pub sparse_blob: bool,
-    /// The stage that proposed it (the colour path, the candidate network, the appearance
-    /// proposer or the tracked ball's predicted place).
-    pub stage: CandidateStage,
-}
-
-/// A frame's proposals and the local views they were found in.
-#[derive(Debug, Clone, Default)]
-pub struct Proposals {
-    pub views: Vec<RgbImage>,
-    pub items: Vec<Proposal>,
-}
-
-impl Proposals {
-    /// The image a proposal's `local` circle refers to.
-    pub fn image<'a>(&'a self, p: &Proposal, frame: &'a RgbImage) -> &'a RgbImage {
-        p.view.and_then(|i| self.views.get(i)).unwrap_or(frame)
-    }
 }
 
 /// The image half of the ball detector, with its lighting-adapted colour window.
@@ -202,7 +170,7 @@ impl Detector {
     /// The circles of a frame before classification.
     ///
     /// With the camera's calibrated `model`, each blob is searched in its own local
-    /// perspective view ([`crate::camera::rectify::LocalView`]), where a ball is round even at the edge of a
+    /// perspective view ([`crate::colour::rectify::LocalView`]), where a ball is round even at the edge of a
     /// fisheye image; proposals then carry that view and their angular radius. Without a
     /// model the frame is searched as it is.
     ///

@@ -52,6 +52,7 @@ mod nn;
 #[cfg(any(test, feature = "test-support"))]
 pub mod patch_fixtures;
 pub mod photo;
+mod proposal;
 #[cfg(any(test, feature = "test-support"))]
 pub mod test_fixtures;
 

@@ -6,7 +6,6 @@
 //! them, less fragments of bigger things.
 
 use crate::camera::CameraModel;
-use crate::camera::rectify::{LocalView, MAX_HALF_SIDE_PX};
 use crate::circle::Circle;
 use crate::colour::blob_circle::{
     blob_circle, blob_size_px, is_roundish, ring_share, shrink, unshrink,
@@ -15,9 +14,11 @@ use crate::colour::components::{BoundingBox, Component, joined_components};
 use crate::colour::hough::HoughConfig;
 use crate::colour::hsv::MaskLut;
 use crate::colour::morphology::{close, open};
+use crate::colour::rectify::{LocalView, MAX_HALF_SIDE_PX};
 use crate::colour::two_colour::{Hull, region_mask};
-use crate::detect::{DetectError, Detector, Proposal, Proposals, StageClock};
+use crate::detect::{DetectError, Detector, StageClock};
 use crate::image::{ImageError, Mask, RgbImage};
+use crate::proposal::{Proposal, Proposals};
 use proto::CandidateStage;
 
 impl Detector {
