@@ -151,6 +151,12 @@ pub(crate) fn perceive(
         while eyes.busy(frame.camera) {
             books.take_oldest(&mut eyes)?;
         }
+        // A frame that went stale while its camera's eye finished the last one is skipped
+        // too, as at admission.
+        if pacer.late(frame.stamp) {
+            books.summary.skipped += 1;
+            continue;
+        }
         // Each new state is handed over once; the agent keeps the latest.
         if let Some(state) = shared.lock().ok().and_then(|mut s| s.take()) {
             books.agent.on_ball_state(state);
@@ -399,6 +405,11 @@ impl Pacer {
             }
         }
         Admission::Now
+    }
+
+    /// Whether a paced frame is now more than [`MAX_LAG_S`] behind the wall clock.
+    fn late(&self, stamp: Stamp) -> bool {
+        self.pace && stamp.secs_since(wall_now()) < -MAX_LAG_S
     }
 }
 
