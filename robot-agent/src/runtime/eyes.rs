@@ -7,7 +7,7 @@
 //! to the eye's thread and come back by move: nothing of the frame is copied.
 
 use crate::agent::Agent;
-use crate::pipeline::{Eye, FrameInput, FrameResult, SharedBall};
+use crate::pipeline::{Eye, FrameResult, SharedBall};
 use crate::runtime::frame::StoredFrame;
 use anyhow::{Context, Result};
 use proto::{Camera, Stamp};
@@ -164,15 +164,7 @@ fn see(mut eye: Eye, jobs: &Receiver<Job>, done: &SyncSender<Done>) {
             last: Instant::now(),
             marks,
         };
-        let input = FrameInput {
-            stamp: frame.stamp,
-            camera: frame.camera,
-            image: &frame.image,
-            pose: frame.state.pose,
-            pose_covariance: frame.state.pose_covariance,
-            head: frame.state.head,
-        };
-        let result = eye.look(&input, &model, shared, &mut clock);
+        let result = eye.look(&frame.input(), &model, shared, &mut clock);
         let back = Done {
             frame,
             source_stamp,

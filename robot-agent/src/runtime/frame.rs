@@ -2,6 +2,7 @@
 //! the robot's state at the capture ([`StoredFrame`], [`RobotState`]); and an image message
 //! of a recording, decoded only when its frame is processed ([`McapImage`]).
 
+use crate::pipeline::FrameInput;
 use anyhow::{Result, bail};
 use proto::{Camera, HeadJoints, Pose2, Stamp};
 use serde::{Deserialize, Serialize};
@@ -26,6 +27,20 @@ pub struct StoredFrame {
     pub camera: Camera,
     pub image: RgbImage,
     pub state: RobotState,
+}
+
+impl StoredFrame {
+    /// The frame as the pipeline takes it.
+    pub fn input(&self) -> FrameInput<'_> {
+        FrameInput {
+            stamp: self.stamp,
+            camera: self.camera,
+            image: &self.image,
+            pose: self.state.pose,
+            pose_covariance: self.state.pose_covariance,
+            head: self.state.head,
+        }
+    }
 }
 
 /// An image message, decoded when its frame is processed.

@@ -4,7 +4,6 @@
 //! runs on its own thread (it is CPU-bound and must not stall the network).
 
 use crate::agent::{Agent, FrameOutcome};
-use crate::pipeline::FrameInput;
 use crate::pipeline::FrameResult;
 use crate::runtime::RunArgs;
 use crate::runtime::eyes::{Done, Eyes};
@@ -209,15 +208,7 @@ impl Books {
         }
         eyes.recycle(frame.camera, marks);
         let result = result.context("pipeline")?;
-        let input = FrameInput {
-            stamp: frame.stamp,
-            camera: frame.camera,
-            image: &frame.image,
-            pose: frame.state.pose,
-            pose_covariance: frame.state.pose_covariance,
-            head: frame.state.head,
-        };
-        let outcome = self.agent.account(&input, result);
+        let outcome = self.agent.account(&frame.input(), result);
         self.account(&frame, source_stamp, outcome)?;
         Ok(true)
     }
